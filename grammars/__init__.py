@@ -1,0 +1,1 @@
+"""The FANUC grammar, shipped inside the package as ``postproc.grammars``."""

@@ -1,0 +1,125 @@
+"""The lossless block model.
+
+One line of a part program is one :class:`Block`. A block keeps its exact text, its
+line ending and its 1-based line number, so an unchanged block is written back byte for
+byte. What the interpreter needs (``codes``: address letters and values) is computed once
+when the block is read; word spellings and columns (:attr:`Block.words`) are computed
+only when asked for, because a million-block program should not pay for objects that only
+an error message or a rewritten block needs.
+
+Conventions: columns are 0-based offsets inside the model and 1-based in every message.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Union
+
+if TYPE_CHECKING:
+    from .macro import Expr, Statement
+
+#: A word's value as the interpreter sees it: the number as written (sign included,
+#: spaces removed, so ``"-.5"`` or ``"10."``) or a macro expression.
+Value = Union[str, "Expr"]
+
+BLANK = "blank"  #: nothing but white space
+TAPE = "tape"  #: a ``%`` tape mark
+HEADER = "header"  #: a program number ``O1234`` or name ``<NAME>``
+BLOCK = "block"  #: an ordinary block: words, comments, a macro statement
+TRAILER = "trailer"  #: text after the closing ``%``; the control never reads it
+
+
+@dataclass(frozen=True, slots=True)
+class Word:
+    """An address and its value, with the spelling the program used."""
+
+    letter: str  #: upper-case address; ``",C"``/``",R"``/``",A"`` for corner words
+    text: str  #: exactly as written, e.g. ``"X 10."`` or ``"x-#1"``
+    col: int  #: 0-based column of the address in the line
+    value: Value  #: numeric literal (str) or macro expression
+
+    @property
+    def end(self) -> int:
+        return self.col + len(self.text)
+
+    @property
+    def is_number(self) -> bool:
+        return isinstance(self.value, str)
+
+
+@dataclass(frozen=True, slots=True)
+class Comment:
+    text: str  #: with its parentheses
+    col: int
+
+
+@dataclass(frozen=True, slots=True)
+class Detail:
+    """Everything about a block's spelling: built on demand."""
+
+    words: tuple[Word, ...]
+    comments: tuple[Comment, ...]
+    label_col: int | None
+    eob_col: int | None  #: column of ``;`` when the block has one
+
+
+class Block:
+    """One line of the program."""
+
+    __slots__ = ("line", "text", "eol", "kind", "label", "delete", "codes", "statement", "_detail", "_detailer")
+
+    def __init__(
+        self,
+        line: int,
+        text: str,
+        eol: str,
+        kind: str,
+        label: int | None = None,
+        delete: int | None = None,
+        codes: tuple[tuple[str, Value], ...] = (),
+        statement: "Statement | None" = None,
+        detail: Detail | None = None,
+        detailer=None,
+    ):
+        self.line = line  #: 1-based line number
+        self.text = text  #: the line without its ending
+        self.eol = eol  #: ``"\n"``, ``"\r\n"``, ``"\r"`` or ``""`` (last line)
+        self.kind = kind
+        self.label = label  #: N number, or None
+        self.delete = delete  #: block delete level (1 for ``/``), or None
+        self.codes = codes  #: (LETTER, value) pairs in order, label excluded
+        self.statement = statement  #: the macro statement, if any
+        self._detail = detail
+        self._detailer = detailer
+
+    @property
+    def raw(self) -> str:
+        return self.text + self.eol
+
+    @property
+    def detail(self) -> Detail:
+        if self._detail is None:
+            self._detail = self._detailer(self.text)
+        return self._detail
+
+    @property
+    def words(self) -> tuple[Word, ...]:
+        return self.detail.words
+
+    @property
+    def comments(self) -> tuple[Comment, ...]:
+        return self.detail.comments
+
+    @property
+    def has_eob(self) -> bool:
+        return self.detail.eob_col is not None
+
+    def word(self, letter: str) -> Word | None:
+        """The first word with this address."""
+        for word in self.words:
+            if word.letter == letter:
+                return word
+        return None
+
+    def __repr__(self) -> str:
+        return f"Block(line={self.line}, text={self.text!r})"

@@ -1,0 +1,152 @@
+"""The ``postproc`` command line (formats.md, "Command line"). Thin: it parses options,
+calls the library and turns errors into messages and exit codes.
+
+Only the program (or the CSV, or the report asked for) goes to stdout; every message goes
+to stderr. On any non-zero exit no output program is written.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import sys
+
+import click
+
+from . import __version__
+from . import profile as profiles
+from .diagnostics import EXIT_INTERNAL, PostprocError, Reporter, UsageError
+from .output import STDOUT, Spool
+from .source import Source
+
+
+def _reported(command):
+    """Run a command; a PostprocError becomes its message and exit code."""
+
+    @functools.wraps(command)
+    def wrapper(*args, **kwargs):
+        try:
+            return command(*args, **kwargs)
+        except PostprocError as exc:
+            click.echo(str(exc), err=True)
+            sys.exit(exc.exit_code)
+        except (KeyboardInterrupt, click.exceptions.Exit, click.ClickException):
+            raise
+        except BrokenPipeError:
+            sys.exit(EXIT_INTERNAL)
+        except Exception as exc:  # a bug: say so in one line, keep the traceback for debugging
+            if os.environ.get("POSTPROC_DEBUG"):
+                raise
+            click.echo(f"postproc: internal error: {exc.__class__.__name__}: {exc} "
+                       "(set POSTPROC_DEBUG=1 to see where)", err=True)
+            sys.exit(EXIT_INTERNAL)
+
+    return wrapper
+
+
+def _profile(machine: str | None) -> profiles.MachineProfile:
+    return profiles.load(machine) if machine else profiles.DEFAULT
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="postproc")
+def main() -> None:
+    """Rewrite FANUC lathe part programs so that the next part is cut right."""
+
+
+@main.command()
+@click.argument("inputs", nargs=-1, metavar="[INPUT...]")
+@click.option("-o", "--output", "output", metavar="OUTPUT", help="Write the program here instead of stdout.")
+@click.option("--out-dir", metavar="DIR", help="Write each program into DIR under its own name.")
+@click.option("--plugin", "plugins", multiple=True, metavar="NAME", help="A compensator to apply, in order.")
+@click.option("--ballbar", multiple=True, metavar="FILE", help="A ballbar trace.")
+@click.option("--probe", multiple=True, metavar="FILE", help="Probe points.")
+@click.option("--calibration", metavar="FILE", help="A probe calibration on an artifact.")
+@click.option("--model", metavar="FILE", help="A saved compensation model.")
+@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
+@click.option("--tolerance", type=float, metavar="MM", help="Largest deviation of the emitted path.")
+@click.option("--mode", type=click.Choice(["auto", "arc", "line"]), default="auto", show_default=True)
+@click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
+@_reported
+def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, model, machine, tolerance, mode, options):
+    """Compensate part programs; with no compensator, write the input back byte for byte."""
+    inputs = inputs or ("-",)
+    if output and out_dir:
+        raise UsageError("give -o or --out-dir, not both")
+    if len(inputs) > 1 and not out_dir:
+        raise UsageError("several inputs need --out-dir")
+    measurements = ballbar or probe or calibration
+    if measurements and not plugins:
+        raise UsageError("measurements were given but no compensator (--plugin) to use them")
+    if options and not plugins and not model:
+        raise UsageError("--option was given but no compensator (--plugin) to take it")
+    if plugins or model:
+        raise UsageError(f"no compensator named {plugins[0] if plugins else 'from ' + model!r} is installed")
+    profile = _profile(machine)
+    for name in inputs:
+        destination = os.path.join(out_dir, os.path.basename(name)) if out_dir else (output or STDOUT)
+        _identity(name, destination, profile)
+
+
+def _identity(name: str, destination: str, profile: profiles.MachineProfile) -> None:
+    """Parse and interpret the program, then write it back unchanged."""
+    from .program import interpret_source
+
+    reporter = Reporter(sys.stderr)
+    with Source(name) as source:
+        for _ in interpret_source(source, profile, reporter):
+            pass
+        with Spool(destination) as spool:
+            with source.open_binary() as raw:
+                while chunk := raw.read(1 << 20):
+                    spool.write(chunk)
+            spool.commit()
+    reporter.close()
+
+
+@main.command()
+@click.argument("input", default="-")
+@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
+@_reported
+def check(input, machine):
+    """Parse and interpret a program: diagnostics only, no output program."""
+    from .program import interpret_source
+
+    reporter = Reporter(sys.stderr)
+    blocks = moves = 0
+    with Source(input) as source:
+        for step in interpret_source(source, _profile(machine), reporter):
+            blocks += 1
+            moves += len(step.moves)
+        name = source.name
+    reporter.close()
+    click.echo(f"{name}: ok: {blocks} lines, {moves} moves, {len(reporter.warnings)} warnings", err=True)
+
+
+@main.command()
+@click.argument("input", default="-")
+@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
+@click.option("-o", "--output", "output", metavar="FILE", help="Write the CSV here instead of stdout.")
+@_reported
+def path(input, machine, output):
+    """The interpreted tool path as CSV, one row per motion."""
+    from .pathcsv import path_rows
+    from .program import interpret_source
+
+    reporter = Reporter(sys.stderr)
+    with Source(input) as source, Spool(output or STDOUT) as spool:
+        for line in path_rows(interpret_source(source, _profile(machine), reporter)):
+            spool.write(line.encode() + b"\n")
+        spool.commit()
+    reporter.close()
+
+
+@main.command("plugins")
+@_reported
+def list_plugins():
+    """The installed compensators, one per line: name, version, description."""
+    from importlib.metadata import entry_points
+
+    for entry in sorted(entry_points(group="postproc"), key=lambda e: e.name):
+        version = entry.dist.version if entry.dist else "?"
+        click.echo(f"{entry.name} {version}")

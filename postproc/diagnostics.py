@@ -1,0 +1,181 @@
+"""Errors, warnings, their message forms and the exit codes: the one place that defines them.
+
+Message forms (formats.md, "Command line"):
+
+- ``FILE:LINE:COL: error: message`` for a program, followed by the source line and a caret;
+- ``FILE:LINE: error: message`` for a data row or header line of a measurement file;
+- ``FILE: error: message`` for a whole file;
+- warnings the same with ``warning:``.
+
+Lines and columns are 1-based everywhere. Every error the user can cause is a
+:class:`PostprocError`; its ``exit_code`` is what the command line returns, and on any
+non-zero exit no output program is written.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from typing import TextIO
+
+EXIT_OK = 0
+EXIT_WOULD_CHANGE = 1  #: ``--check`` found that the output would differ from the input
+EXIT_USAGE = 2  #: the command line itself is wrong
+EXIT_BAD_INPUT = 3  #: a program, measurement, model or option value is wrong
+EXIT_REFUSED = 4  #: refused for safety: maximum correction, soft limits, self-check, double compensation
+EXIT_INTERNAL = 5  #: a bug, in postproc or in a plugin
+
+STDIN_NAME = "<stdin>"
+
+
+@dataclass(frozen=True, slots=True)
+class Location:
+    """Where a diagnostic points: a file, optionally a 1-based line and column."""
+
+    file: str  #: path as the user gave it, or ``<stdin>``
+    line: int | None = None  #: 1-based line number
+    col: int | None = None  #: 1-based column (characters, not bytes)
+    source: str | None = None  #: the text of that line, for the caret display
+
+    def prefix(self) -> str:
+        parts = [self.file]
+        if self.line is not None:
+            parts.append(str(self.line))
+            if self.col is not None:
+                parts.append(str(self.col))
+        return ":".join(parts)
+
+    def caret(self) -> str:
+        """The source line and a caret under the column, or an empty string."""
+        if self.source is None or self.col is None:
+            return ""
+        shown = self.source.rstrip("\r\n")
+        pad = "".join("\t" if ch == "\t" else " " for ch in shown[: self.col - 1])
+        return f"    {shown}\n    {pad}^"
+
+
+def format_message(severity: str, message: str, location: Location | None) -> str:
+    """One diagnostic in the fixed form, with the caret lines for program positions."""
+    if location is None:
+        return f"postproc: {severity}: {message}"
+    text = f"{location.prefix()}: {severity}: {message}"
+    caret = location.caret()
+    return f"{text}\n{caret}" if caret else text
+
+
+class PostprocError(Exception):
+    """Base of every error postproc reports to its user."""
+
+    exit_code = EXIT_BAD_INPUT
+
+    def __init__(self, message: str, location: Location | None = None):
+        super().__init__(message)
+        self.message = message
+        self.location = location
+
+    def __str__(self) -> str:
+        return format_message("error", self.message, self.location)
+
+    def at(self, location: Location) -> "PostprocError":
+        """The same error placed at ``location`` when it has none yet."""
+        if self.location is None:
+            self.location = location
+        return self
+
+
+class UsageError(PostprocError):
+    """The command line does not make sense (an option without its companion, and so on)."""
+
+    exit_code = EXIT_USAGE
+
+
+class ProgramError(PostprocError):
+    """A part program is wrong: its syntax, or what it asks the control to do."""
+
+
+class ProgramSyntaxError(ProgramError):
+    """A block the grammar does not accept."""
+
+
+class InterpretationError(ProgramError):
+    """A block that parses but that the control would refuse (arc check, missing P/Q label...)."""
+
+
+class MeasurementError(PostprocError):
+    """A measurement file (ballbar trace, probe points, calibration) is wrong or unusable."""
+
+
+class ModelError(PostprocError):
+    """A saved compensation model cannot be used."""
+
+
+class OptionError(PostprocError):
+    """An option value is wrong (a tolerance of zero, a key no compensator declares...)."""
+
+
+class SafetyError(PostprocError):
+    """The run is refused because its output could damage tool or part."""
+
+    exit_code = EXIT_REFUSED
+
+
+class PluginError(PostprocError):
+    """A compensator plugin failed or returned something the core cannot use."""
+
+    exit_code = EXIT_INTERNAL
+
+    def __init__(self, plugin: str, message: str, location: Location | None = None):
+        super().__init__(f"plugin {plugin!r}: {message}", location)
+        self.plugin = plugin
+
+
+class InternalError(PostprocError):
+    """A bug in postproc itself."""
+
+    exit_code = EXIT_INTERNAL
+
+
+@dataclass(frozen=True, slots=True)
+class Diagnostic:
+    """A warning: the run goes on, and the user should know why."""
+
+    message: str
+    location: Location | None = None
+
+    def __str__(self) -> str:
+        return format_message("warning", self.message, self.location)
+
+
+class Reporter:
+    """Collects warnings and writes them to a stream as they happen.
+
+    Repeats of the same warning text are shown ``limit`` times and then counted, so a
+    million-block program with one habit does not bury the other messages.
+    """
+
+    def __init__(self, stream: TextIO | None = None, limit: int = 20):
+        self.stream = stream
+        self.limit = limit
+        self.warnings: list[Diagnostic] = []
+        self._seen: dict[str, int] = {}
+
+    def warn(self, message: str, location: Location | None = None) -> None:
+        count = self._seen.get(message, 0) + 1
+        self._seen[message] = count
+        warning = Diagnostic(message, location)
+        if count <= self.limit:
+            self.warnings.append(warning)
+            if self.stream is not None:
+                print(warning, file=self.stream)
+
+    def close(self) -> None:
+        """Say how many repeated warnings were not shown."""
+        if self.stream is None:
+            return
+        for message, count in self._seen.items():
+            if count > self.limit:
+                print(f"postproc: warning: {count - self.limit} more like: {message}", file=self.stream)
+
+
+def stderr_reporter() -> Reporter:
+    return Reporter(sys.stderr)

@@ -1,0 +1,59 @@
+"""The fast path: ordinary blocks read by one compiled regular expression.
+
+An ordinary block is an optional sequence number, address words whose values are plain
+numbers, at most one simple comment and an optional ``;``. Such a block is about ninety
+per cent of any real program; reading it with a regular expression instead of the LALR
+parser is what lets postproc run near the speed of a bare tokenizer. Anything else
+(macros, headers, block delete, nested comments, spaces inside numbers, mistakes) goes to
+the grammar. ``tests/test_fastpath.py`` proves on the corpus and on generated programs
+that both paths give the same block for every line the fast path accepts.
+"""
+
+from __future__ import annotations
+
+import re
+
+from .blocks import BLANK, BLOCK, Block, Comment, Detail, Word
+
+_ORDINARY = re.compile(
+    r"[ \t]*"
+    r"(?:(?P<n>[Nn])[ \t]*(?P<label>\d+)[ \t]*)?"
+    r"(?P<words>(?:[A-MP-Za-mp-z][ \t]*[+-]?(?:\d+\.?\d*|\.\d+)[ \t]*)*)"
+    r"(?:(?P<comment>\([^()\r\n]*\))[ \t]*)?"
+    r"(?:(?P<eob>;)[ \t]*)?"
+)
+_WORD = re.compile(r"([A-Z])[ \t]*([+-]?(?:\d+\.?\d*|\.\d+))")
+_WORD_SPELLING = re.compile(r"[A-Za-z][ \t]*[+-]?(?:\d+\.?\d*|\.\d+)")
+
+
+def read_ordinary(text: str, line: int, eol: str) -> Block | None:
+    """The block for an ordinary line, or None when the line needs the grammar."""
+    match = _ORDINARY.fullmatch(text)
+    if match is None:
+        return None
+    label = match.group("label")
+    words = match.group("words")
+    if not words:
+        if label is None and match.group("comment") is None and match.group("eob") is None:
+            return Block(line, text, eol, BLANK, detail=_EMPTY)
+        codes = ()
+    else:
+        codes = tuple(_WORD.findall(words.upper()))
+    return Block(line, text, eol, BLOCK, int(label) if label is not None else None, None, codes, None,
+                 detailer=_detail)
+
+
+_EMPTY = Detail((), (), None, None)
+
+
+def _detail(text: str) -> Detail:
+    match = _ORDINARY.fullmatch(text)
+    start, end = match.span("words")
+    words = tuple(
+        Word(m.group(0)[0].upper(), m.group(0), m.start(), _WORD.fullmatch(m.group(0).upper()).group(2))
+        for m in _WORD_SPELLING.finditer(text, start, end)
+    )
+    comments = (Comment(match.group("comment"), match.start("comment")),) if match.group("comment") else ()
+    label_col = match.start("n") if match.group("n") is not None else None
+    eob_col = match.start("eob") if match.group("eob") else None
+    return Detail(words, comments, label_col, eob_col)

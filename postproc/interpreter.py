@@ -1,0 +1,842 @@
+"""The FANUC lathe interpreter: blocks in, moves out, in program order.
+
+It is a modal state machine over the blocks of one program (G-code system A by default,
+B and C selectable). What it knows exactly becomes :class:`~postproc.motion.Move` values
+in radius millimetres; what depends on data only the control has (a common variable, a
+jump, a subprogram, a reference return) becomes a warning and an unknown position, never
+a guess. The control's own alarms that can be seen in the text (an arc whose end radius
+does not match, an R arc shorter than its chord, a P/Q label that is missing or
+ambiguous) are errors with the block's position.
+
+Canned cycles: G71/G72/G73 run their P..Q contour blocks as roughing passes, not in
+sequence: the contour blocks are interpreted as a contour (role ``contour``) from the
+cycle's start point and the program resumes after them at that start point. G70 runs
+the contour again as the finishing path (role ``replay``), then returns to its start
+point. Single-pass cycles (G90/G92/G94 in system A) and G74/G75/G76 are one row each.
+Threading (G32, G76, G92) is marked so that no compensator touches it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Iterable, Iterator
+
+from . import gcodes as G
+from . import macro
+from .blocks import BLOCK, Block
+from .corners import CornerError, corner_moves
+from .diagnostics import InterpretationError, Location, Reporter
+from .macro import UNKNOWN, VACANT
+from .motion import ARC, CONTOUR, CORNER, CYCLE, LINE, RAPID, REPLAY, RUN, THREAD, Modal, Move, Step
+from .profile import DEFAULT, MachineProfile
+from .source import LabelIndex
+
+INCH = 25.4
+
+#: Addresses whose plain numbers are lengths: without a decimal point they count least
+#: input increments (unless calculator-type input is set).
+_LENGTH_ADDRESSES = frozenset("XZUWIKR") | {",C", ",R"}
+_MOTION_KIND = {G.G00: RAPID, G.G01: LINE, G.G02: ARC, G.G03: ARC, G.G32: THREAD}
+_CYCLE_KIND = {G.TURN_CYCLE: CYCLE, G.FACE_CYCLE: CYCLE, G.THREAD_CYCLE: THREAD}
+
+
+class _Uninterpretable(Exception):
+    """The block cannot be interpreted; the message says why, the column where."""
+
+    def __init__(self, message: str, col: int | None = None, unknown_axes: str = "XZ", target=None):
+        super().__init__(message)
+        self.message = message
+        self.col = col
+        self.unknown_axes = unknown_axes
+        self.target = target  #: the end point as far as it is known, for a motion block
+
+
+@dataclass
+class _Words:
+    """A block's words, evaluated: lengths in radius mm, the rest as written."""
+
+    g: list[int] = field(default_factory=list)
+    m: list[int] = field(default_factory=list)
+    values: dict[str, float] = field(default_factory=dict)
+    unknown: dict[str, str] = field(default_factory=dict)  #: letter -> why its value is unknown
+
+
+@dataclass
+class _Contour:
+    """A P..Q contour: its blocks, kept to be run again by G70."""
+
+    p: int
+    q: int
+    cycle_line: int
+    blocks: list[Block] = field(default_factory=list)
+    moves: list[Move] = field(default_factory=list)
+    start: tuple[float | None, float | None] = (None, None)
+
+
+@dataclass
+class _Capture:
+    """The contour being read after its cycle block."""
+
+    contour: _Contour
+    resume: Modal
+    resume_at: tuple[float | None, float | None]
+    started: bool = False
+
+
+class Interpreter:
+    """Interprets one program. Use :meth:`run` once."""
+
+    def __init__(
+        self,
+        profile: MachineProfile = DEFAULT,
+        reporter: Reporter | None = None,
+        file: str = "<program>",
+        labels=None,
+        reread=None,
+    ):
+        self.profile = profile
+        self.reporter = reporter if reporter is not None else Reporter()
+        self.file = file
+        self._labels = labels  # the program's LabelIndex, or a callable that scans for it on first use
+        self._reread = reread  # callable(first_line, last_line) -> Iterable[Block], for contours placed earlier
+        self.table = G.SYSTEMS[profile.gcode_system]
+        self.x: float | None = None
+        self.z: float | None = None
+        self.modal = Modal(motion=G.G00, inch=False, absolute=True, per_rev=True)
+        self.variables: dict[int, float | None] = {}
+        self.contours: dict[tuple[int, int], _Contour] = {}
+        self._capture: _Capture | None = None
+        self._expect: tuple[_Contour, Modal, tuple] | None = None
+        self._skip_until: int | None = None  # label ending a region that cannot be interpreted
+        self._drilling = False
+        self._modal_macro = False
+        self._pending: list[Step] = []  # steps held while a corner waits for its next move
+        self._corner: tuple[Step, int, str, float] | None = None  # (step, move index, corner word, size)
+        self._work: int | None = None  # G54..G59 in force; None until the program names one
+        self._fresh_corner: tuple[int, str, float] | None = None
+        self._feed_warned = False
+
+    # ------------------------------------------------------------------ driving
+
+    def run(self, blocks: Iterable[Block]) -> Iterator[Step]:
+        for block in blocks:
+            self._fresh_corner = None
+            step = self._step(block)
+            fresh = self._fresh_corner
+            if self._corner is not None:
+                self._pending.append(step)
+                if self._join_corner(step) and fresh is not None:
+                    self._corner = (step, *fresh)
+            elif fresh is not None:
+                self._corner = (step, *fresh)
+                self._pending.append(step)
+            else:
+                yield step
+            if self._corner is None and self._pending:
+                yield from self._pending
+                self._pending = []
+        if self._corner is not None:
+            step, _, kind, _ = self._corner
+            raise InterpretationError(
+                f"corner {kind} needs a following G01/G02/G03 move (FANUC alarm PS0051)",
+                self._location(step.block, self._col(step.block, kind)),
+            )
+
+    def _join_corner(self, step: Step) -> bool:
+        """Cut the held corner with this step's first move; False while still waiting."""
+        held, index, kind, size = self._corner
+        where = self._location(held.block, self._col(held.block, kind))
+        following = [i for i, move in enumerate(step.moves) if move.role in (RUN, CONTOUR)]
+        if not following:
+            if step.block.codes or step.block.statement is not None:
+                raise InterpretationError(
+                    f"corner {kind} must be followed directly by a G01/G02/G03 move (FANUC alarm PS0051)", where
+                )
+            return False
+        j = following[0]
+        first, second = held.moves[index], step.moves[j]
+        if second.kind not in (LINE, ARC) or not (second.exact and first.exact):
+            raise InterpretationError(f"corner {kind} must be followed by a G01/G02/G03 move (FANUC alarm PS0051)", where)
+        try:
+            shortened, corner, rest = corner_moves(first, second, kind, size)
+        except CornerError as exc:
+            raise InterpretationError(str(exc), where) from None
+        held.moves = held.moves[:index] + (shortened, corner) + held.moves[index + 1 :]
+        step.moves = step.moves[:j] + (rest,) + step.moves[j + 1 :]
+        self._corner = None
+        return True
+
+    # ------------------------------------------------------------------ one block
+
+    def _step(self, block: Block) -> Step:
+        if block.kind != BLOCK:
+            return Step(block, (), self.modal, interpreted=block.kind != BLOCK)
+        if self._skip_until is not None:
+            step = Step(block, (), self.modal, interpreted=False)
+            if block.label == self._skip_until:
+                self._skip_until = None
+                self.x = self.z = None
+            return step
+        if self._expect is not None and (block.codes or block.statement is not None or block.label is not None):
+            self._start_expected_contour(block)
+        in_contour = self._capture is not None
+        if block.label is not None and self._is_jump_target(block.label):
+            self._forget("a jump may arrive here")
+        try:
+            if block.delete is not None and block.codes:
+                raise _Uninterpretable("block delete: whether the control runs this block depends on its switch")
+            if block.statement is not None:
+                step = self._statement(block)
+            else:
+                step = self._words_step(block)
+        except _Uninterpretable as exc:
+            step = self._uninterpretable(block, exc)
+        if in_contour:
+            step.in_contour = True
+            self._contour_block(block)
+        return step
+
+    def _uninterpretable(self, block: Block, exc: _Uninterpretable) -> Step:
+        col = exc.col if exc.col is not None else self._first_col(block)
+        self.reporter.warn(
+            f"block cannot be interpreted: {exc.message}; it passes through unchanged",
+            self._location(block, col),
+        )
+        moves: tuple[Move, ...] = ()
+        motion = self.modal.motion
+        if exc.target is not None:
+            end_x, end_z = exc.target
+        else:
+            end_x = None if "X" in exc.unknown_axes else self.x
+            end_z = None if "Z" in exc.unknown_axes else self.z
+        if any(code[0] in "XZUW" for code in block.codes):
+            kind = _MOTION_KIND.get(motion, LINE) if isinstance(motion, int) else CYCLE
+            moves = (Move(kind, block.line, self.x, self.z, end_x, end_z, role=self._role(), exact=False),)
+        self.x, self.z = end_x, end_z
+        return Step(block, moves, self.modal, interpreted=False)
+
+    def _forget(self, reason: str) -> None:
+        """Control flow may arrive with other values: forget what only one path knew."""
+        self.variables = {}
+        self.x = self.z = None
+        self.modal = replace(self.modal, motion=None)
+
+    @property
+    def labels(self) -> LabelIndex:
+        if self._labels is None:
+            self._labels = LabelIndex()
+        elif callable(self._labels):
+            self._labels = self._labels()
+        return self._labels
+
+    def _is_jump_target(self, label: int) -> bool:
+        return label in self.labels.goto_targets or self.labels.computed_goto
+
+    # ------------------------------------------------------------------ macro statements
+
+    def _statement(self, block: Block) -> Step:
+        statement = block.statement
+        kind = type(statement)
+        if kind is macro.Assignment:
+            self._assign(statement, block)
+        elif kind is macro.IfThen:
+            condition = self._evaluate(statement.condition, block)
+            if condition is UNKNOWN:
+                target = self._variable_number(statement.then.target, block)
+                if target is None:
+                    self.variables = {}
+                else:
+                    self.variables.pop(target, None)
+            elif condition:
+                self._assign(statement.then, block)
+        elif kind is macro.IfGoto:
+            condition = self._evaluate(statement.condition, block)
+            if condition is not UNKNOWN and condition:
+                self._forget("the jump is taken")
+        elif kind is macro.Goto:
+            self._forget("the jump is taken")
+        elif kind in (macro.WhileDo, macro.DoLoop, macro.EndLoop):
+            self._forget("a loop may run again")
+        return Step(block, (), self.modal)
+
+    def _assign(self, assignment: macro.Assignment, block: Block) -> None:
+        number = self._variable_number(assignment.target, block)
+        value = self._evaluate(assignment.value, block)
+        if number is None:
+            self.variables = {}  # an indirect target we cannot resolve may be any variable
+            return
+        if number == 0 or (number >= 1000 and number not in range(1, 1000)):
+            return  # #0 cannot be set; system variables act on the control, not on the path
+        if value is UNKNOWN:
+            self.variables.pop(number, None)
+        else:
+            self.variables[number] = value
+
+    def _variable_number(self, variable: macro.Variable, block: Block) -> int | None:
+        if variable.name is not None:
+            return None
+        if isinstance(variable.index, int):
+            return variable.index
+        value = self._evaluate(variable.index, block)
+        if value is UNKNOWN or value is None:
+            return None
+        return int(round(value))
+
+    def _evaluate(self, expr, block: Block):
+        try:
+            return macro.evaluate(expr, self.variables)
+        except macro.MacroValueError as exc:
+            raise InterpretationError(f"macro expression: {exc}", self._location(block, self._first_col(block))) from None
+
+    # ------------------------------------------------------------------ words
+
+    def _collect(self, block: Block) -> _Words:
+        words = _Words()
+        profile = self.profile
+        inch = self.modal.inch
+        calculator = profile.calculator_input
+        increment = profile.increment(inch)
+        scale = INCH if inch else 1.0
+        macro_call = False
+        for letter, value in block.codes:
+            if type(value) is str:
+                number = float(value)
+                point = "." in value
+            else:
+                number = self._evaluate(value, block)
+                if number is UNKNOWN:
+                    words.unknown[letter] = "its value is only known when the program runs"
+                    continue
+                if number is VACANT:
+                    continue  # a vacant variable: the control acts as if the word were absent
+                point = True
+            if letter == "G":
+                key = G.code_key(number)
+                words.g.append(key)
+                if key in (650, 660):
+                    macro_call = True
+                continue
+            if letter == "M":
+                words.m.append(int(number))
+                continue
+            if letter in _LENGTH_ADDRESSES:
+                if not point and not calculator:
+                    number *= increment
+                number *= scale
+            if letter in words.values and not macro_call:
+                raise InterpretationError(
+                    f"address {letter} appears twice in one block",
+                    self._location(block, self._col(block, letter, 2)),
+                )
+            words.values[letter] = number
+        return words
+
+    def _words_step(self, block: Block) -> Step:
+        if not block.codes:
+            return Step(block, (), self.modal)
+        words = self._collect(block)
+        if "G" in words.unknown:
+            self.modal = replace(self.modal, motion=None)
+            raise _Uninterpretable("a G code whose value is only known when the program runs", self._col(block, "G"))
+        for letter in ("T", "F", "S", "M", "P", "Q"):
+            if letter in words.unknown and letter not in "FS":
+                raise _Uninterpretable(f"{letter} value is only known when the program runs", self._col(block, letter))
+        return self._apply(block, words)
+
+    def _apply(self, block: Block, words: _Words) -> Step:
+        table = self.table
+        one_shot = None
+        modal = self.modal
+        motion = modal.motion
+        for key in words.g:
+            entry = table.get(key)
+            if entry is None:
+                self.modal = replace(self.modal, motion=None)
+                raise _Uninterpretable(
+                    f"{G.code_name(key)} is not a G code this interpreter knows (G-code system {self.profile.gcode_system})",
+                    self._col(block, "G"),
+                )
+            kind, meaning = entry
+            if kind == G.MOTION:
+                motion = meaning
+                self._drilling = False
+            elif kind == G.ONE_SHOT:
+                if one_shot is not None:
+                    raise InterpretationError(
+                        f"two G codes of group 00 in one block ({G.code_name(one_shot[0])} and {G.code_name(key)})",
+                        self._location(block, self._col(block, "G", 2)),
+                    )
+                one_shot = (key, meaning)
+            elif kind == G.MODAL:
+                modal = self._modal_setting(modal, meaning, key)
+            elif kind == G.UNSUPPORTED:
+                raise _Uninterpretable(f"{G.code_name(key)} ({meaning}) is not modelled", self._col(block, "G"))
+        modal = self._tool_and_feed(modal, block, words)
+        if motion != modal.motion:
+            modal = replace(modal, motion=motion)
+        if modal != self.modal:
+            self.modal = modal
+        self._check_addresses(block, words, one_shot)
+
+        if 98 in words.m or 99 in words.m or 30 in words.m or 2 in words.m:
+            return self._program_flow(block, words)
+        if one_shot is not None:
+            return self._one_shot(block, words, one_shot[1])
+        if self._modal_macro and self._has_axis(words):
+            raise _Uninterpretable("a modal macro call (G66) runs with this move")
+        if self._drilling and self._has_axis(words):
+            raise _Uninterpretable("a drilling cycle (G83-G89) is not modelled")
+        if self._has_axis(words) or any(letter in words.unknown for letter in "XZUW"):
+            return self._motion(block, words)
+        return Step(block, (), self.modal)
+
+    def _modal_setting(self, modal: Modal, meaning, key: int) -> Modal:
+        if meaning == G.INCH:
+            return replace(modal, inch=True)
+        if meaning == G.METRIC:
+            return replace(modal, inch=False)
+        if meaning == G.ABSOLUTE:
+            return replace(modal, absolute=True)
+        if meaning == G.INCREMENTAL:
+            return replace(modal, absolute=False)
+        if meaning == G.PER_MINUTE:
+            return replace(modal, per_rev=False)
+        if meaning == G.PER_REV:
+            return replace(modal, per_rev=True)
+        if meaning in (G.COMP_OFF, G.COMP_LEFT, G.COMP_RIGHT):
+            return replace(modal, comp=key // 10)
+        if meaning in (G.PLANE_XY, G.PLANE_ZX, G.PLANE_YZ):
+            return replace(modal, plane=key // 10)
+        if meaning == G.WORK:
+            if self._work != key:
+                if self._work is not None:
+                    self.x = self.z = None  # another work coordinate system: where are we in it?
+                self._work = key
+            return modal
+        if meaning == G.DRILL:
+            self._drilling = True
+            return modal
+        if meaning == G.DRILL_CANCEL:
+            self._drilling = False
+            return modal
+        if meaning == G.MODAL_MACRO:
+            self._modal_macro = True
+            return modal
+        if meaning == G.MODAL_MACRO_CANCEL:
+            self._modal_macro = False
+            return modal
+        return modal
+
+    def _tool_and_feed(self, modal: Modal, block: Block, words: _Words) -> Modal:
+        values = words.values
+        if "F" in values:
+            feed = values["F"] * (INCH if modal.inch else 1.0)
+            if feed != modal.feed:
+                modal = replace(modal, feed=feed)
+        if "T" in values:
+            t = int(values["T"])
+            tool, offset = (t // 100, t % 100) if t >= 100 else (t, None)
+            if (tool, offset) != (modal.tool, modal.offset):
+                modal = replace(modal, tool=tool, offset=offset)
+        return modal
+
+    def _check_addresses(self, block: Block, words: _Words, one_shot) -> None:
+        if one_shot is not None and one_shot[1] in (G.MACRO_CALL, G.DATA):
+            return
+        for letter in ("Y", "V", "B"):
+            if letter in words.values and letter not in self.profile.axes:
+                raise InterpretationError(
+                    f"address {letter}: this lathe has no {letter} axis (axes {', '.join(self.profile.axes)}; FANUC alarm PS0009)",
+                    self._location(block, self._col(block, letter)),
+                )
+        if "X" in words.values and "U" in words.values:
+            raise InterpretationError("X and U both given for the X axis", self._location(block, self._col(block, "U")))
+        if "Z" in words.values and "W" in words.values:
+            raise InterpretationError("Z and W both given for the Z axis", self._location(block, self._col(block, "W")))
+
+    @staticmethod
+    def _has_axis(words: _Words) -> bool:
+        values = words.values
+        return "X" in values or "Z" in values or "U" in values or "W" in values
+
+    # ------------------------------------------------------------------ positions
+
+    def _target(self, words: _Words, absolute_ok: bool = True) -> tuple[float | None, float | None]:
+        """The end point the block's X/Z/U/W words name (radius mm), None where unknown."""
+        values = words.values
+        diameter = 0.5 if self.profile.diameter_x else 1.0
+        incremental = not self.modal.absolute
+        x, z = self.x, self.z
+        if "X" in values:
+            value = values["X"] * diameter
+            x = (None if x is None else x + value) if incremental else value
+        elif "U" in values:
+            x = None if x is None else x + values["U"] * diameter
+        if "Z" in values:
+            value = values["Z"]
+            z = (None if z is None else z + value) if incremental else value
+        elif "W" in values:
+            z = None if z is None else z + values["W"]
+        if "X" in words.unknown or "U" in words.unknown:
+            x = None
+        if "Z" in words.unknown or "W" in words.unknown:
+            z = None
+        return x, z
+
+    def _role(self) -> str:
+        return CONTOUR if self._capture is not None else RUN
+
+    def _move(self, kind: str, block: Block, x1, z1, **arc) -> Move:
+        modal = self.modal
+        return Move(
+            kind, block.line, self.x, self.z, x1, z1, role=self._role(), feed=modal.feed, per_rev=modal.per_rev,
+            comp=modal.comp, tool=modal.tool, **arc,
+        )
+
+    # ------------------------------------------------------------------ motion
+
+    def _motion(self, block: Block, words: _Words) -> Step:
+        motion = self.modal.motion
+        if motion is None:
+            raise _Uninterpretable("the motion mode (G00/G01/G02/G03) is not known here")
+        values = words.values
+        x1, z1 = self._target(words)
+        unknown = [letter for letter in words.unknown if letter not in "FS"]
+        if unknown:
+            raise _Uninterpretable(
+                f"{', '.join(unknown)}: a value only known when the program runs",
+                self._col(block, unknown[0]),
+                unknown_axes="".join(a for a, v in (("X", x1), ("Z", z1)) if v is None),
+                target=(x1, z1),
+            )
+        if isinstance(motion, str):
+            return self._single_cycle(block, words, motion, x1, z1)
+        if motion in (G.G02, G.G03):
+            if self.modal.plane != 18:
+                raise _Uninterpretable(f"an arc in plane G{self.modal.plane}, not the lathe's ZX plane (G18)")
+            return self._arc(block, words, motion == G.G02, x1, z1)
+        for letter in ("R", "I", "K", ",A") if motion == G.G01 else ():
+            if letter in values:
+                raise _Uninterpretable(
+                    f"{letter} in a G01 block (chamfering or corner R by the control's parameter 3405, or direct drawing)",
+                    self._col(block, letter[-1]),
+                )
+        if "C" in values and "C" not in self.profile.axes:
+            raise _Uninterpretable("C in a motion block: chamfering by parameter, or a C axis", self._col(block, "C"))
+        kind = _MOTION_KIND[motion]
+        if kind == LINE and self.modal.feed is None and "F" not in words.unknown and not self._feed_warned:
+            self._feed_warned = True
+            self.reporter.warn(
+                "feed move before any F word: the control uses the feed an earlier program left, or alarms (PS0011)",
+                self._location(block, self._first_col(block)),
+            )
+        elif kind == LINE and self.modal.feed == 0.0:
+            raise InterpretationError("feed move with feed rate F0 (FANUC alarm PS0011)",
+                                      self._location(block, self._first_col(block)))
+        move = self._move(kind, block, x1, z1, exact=None not in (x1, z1))
+        self.x, self.z = x1, z1
+        step = Step(block, (move,), self.modal)
+        self._note_corner(step, block, values)
+        return step
+
+    def _arc(self, block: Block, words: _Words, cw: bool, x1, z1) -> Step:
+        values = words.values
+        if None in (self.x, self.z, x1, z1):
+            self.x, self.z = x1, z1
+            raise _Uninterpretable("an arc from or to a position that is not known", None,
+                                   unknown_axes="".join(a for a, v in (("X", x1), ("Z", z1)) if v is None))
+        x0, z0 = self.x, self.z
+        tolerance = self.profile.arc_radius_tolerance
+        if "R" in values:
+            radius = values["R"]
+            chord = math.hypot(x1 - x0, z1 - z0)
+            if chord == 0.0:
+                raise InterpretationError("R arc whose end point is its start point: the control cannot place it",
+                                          self._location(block, self._col(block, "R")))
+            if radius == 0.0:
+                raise InterpretationError("R arc of radius 0 (FANUC alarm PS0023)", self._location(block, self._col(block, "R")))
+            half = chord / 2.0
+            if half > abs(radius) + tolerance:
+                raise InterpretationError(
+                    f"R arc too short: the chord {chord:.4f} mm exceeds twice the radius {abs(radius):.4f} mm "
+                    f"(FANUC alarm PS0020)",
+                    self._location(block, self._col(block, "R")),
+                )
+            height = math.sqrt(max(radius * radius - half * half, 0.0))
+            # Left of the chord in the (x, z) plane is where theta grows: a G02 arc of at
+            # most 180 degrees turns about a centre on that side.
+            left = 1.0 if cw else -1.0
+            if radius < 0:
+                left = -left
+            ux, uz = (x1 - x0) / chord, (z1 - z0) / chord
+            xc = (x0 + x1) / 2.0 - left * height * uz
+            zc = (z0 + z1) / 2.0 + left * height * ux
+        else:
+            if "I" not in values and "K" not in values:
+                raise InterpretationError("G02/G03 without R or I/K (FANUC alarm PS0022)",
+                                          self._location(block, self._col(block, "G")))
+            xc = x0 + values.get("I", 0.0)
+            zc = z0 + values.get("K", 0.0)
+            r0 = math.hypot(x0 - xc, z0 - zc)
+            r1 = math.hypot(x1 - xc, z1 - zc)
+            if r0 == 0.0:
+                raise InterpretationError("arc of radius 0: I and K are both zero", self._location(block, self._col(block, "I")))
+            if abs(r0 - r1) > tolerance:
+                raise InterpretationError(
+                    f"arc end point is off the circle: radius {r0:.4f} mm at the start, {r1:.4f} mm at the end "
+                    f"(limit {tolerance} mm, FANUC alarm PS0020)",
+                    self._location(block, self._col(block, "I") if "I" in values else self._col(block, "K")),
+                )
+        move = self._move(ARC, block, x1, z1, xc=xc, zc=zc, cw=cw)
+        self.x, self.z = x1, z1
+        step = Step(block, (move,), self.modal)
+        self._note_corner(step, block, values)
+        return step
+
+    def _note_corner(self, step: Step, block: Block, values: dict) -> None:
+        """Remember a ,C or ,R word: the corner is cut when the next move is known."""
+        for kind in (",C", ",R"):
+            if kind in values:
+                self._fresh_corner = (len(step.moves) - 1, kind, values[kind])
+
+    def _single_cycle(self, block: Block, words: _Words, cycle: str, x1, z1) -> Step:
+        kind = _CYCLE_KIND[cycle]
+        move = self._move(kind, block, self.x, self.z, exact=None not in (self.x, self.z, x1, z1))
+        return Step(block, (move,), self.modal)
+
+    # ------------------------------------------------------------------ one-shot codes
+
+    def _one_shot(self, block: Block, words: _Words, meaning: str) -> Step:
+        values = words.values
+        if meaning in (G.DWELL, G.DATA):
+            return Step(block, (), self.modal)
+        if meaning == G.COORDINATE:
+            if any(letter in values for letter in "XZ") or any(letter in words.unknown for letter in "XZ"):
+                x, z = self.x, self.z
+                diameter = 0.5 if self.profile.diameter_x else 1.0
+                if "X" in values:
+                    x = values["X"] * diameter
+                if "Z" in values:
+                    z = values["Z"]
+                if "X" in words.unknown:
+                    x = None
+                if "Z" in words.unknown:
+                    z = None
+                self.x, self.z = x, z
+            return Step(block, (), self.modal)
+        if meaning in (G.HOME, G.HOME2):
+            return self._reference_return(block, words)
+        if meaning == G.MACHINE:
+            named = [axis for axis, letters in (("X", "XU"), ("Z", "ZW")) if any(l in values for l in letters)]
+            x1 = None if "X" in named else self.x
+            z1 = None if "Z" in named else self.z
+            move = self._move(RAPID, block, x1, z1, exact=False)
+            self.x, self.z = x1, z1
+            return Step(block, (move,), self.modal)
+        if meaning == G.REF_CHECK:
+            x1, z1 = self._target(words)
+            move = self._move(RAPID, block, x1, z1, exact=None not in (x1, z1))
+            self.x, self.z = x1, z1
+            return Step(block, (move,), self.modal)
+        if meaning in (G.SKIP, G.AUTO_OFFSET):
+            x1, z1 = self._target(words)
+            move = self._move(LINE, block, None if x1 != self.x else x1, None if z1 != self.z else z1, exact=False)
+            self.x, self.z = move.x1, move.z1
+            return Step(block, (move,), self.modal)
+        if meaning == G.LOCAL:
+            self.x = self.z = None
+            return Step(block, (), self.modal)
+        if meaning == G.MACRO_CALL:
+            self.reporter.warn(
+                "macro call G65: what the macro does is not interpreted; position unknown until the next absolute move",
+                self._location(block, self._col(block, "G")),
+            )
+            self._after_call()
+            return Step(block, (), self.modal, interpreted=False)
+        if meaning in G.CONTOUR_CYCLES:
+            return self._contour_cycle(block, words, meaning)
+        if meaning in (G.FACE_PECK, G.GROOVE, G.THREAD_MULTI):
+            if not self._has_axis(words):
+                return Step(block, (), self.modal)  # the first block of the two-block format: parameters only
+            kind = THREAD if meaning == G.THREAD_MULTI else CYCLE
+            move = self._move(kind, block, self.x, self.z, exact=None not in (self.x, self.z))
+            return Step(block, (move,), self.modal)
+        raise AssertionError(meaning)
+
+    def _reference_return(self, block: Block, words: _Words) -> Step:
+        values = words.values
+        named = [axis for axis, letters in (("X", "XU"), ("Z", "ZW")) if any(l in values for l in letters)]
+        if not named:
+            named = ["X", "Z"]  # G28 alone: Haas and most controls send every axis home
+        moves = []
+        mid_x, mid_z = self._target(words)
+        if (mid_x, mid_z) != (self.x, self.z):
+            moves.append(self._move(RAPID, block, mid_x, mid_z, exact=None not in (mid_x, mid_z)))
+            self.x, self.z = mid_x, mid_z
+        end_x = None if "X" in named else self.x
+        end_z = None if "Z" in named else self.z
+        moves.append(self._move(RAPID, block, end_x, end_z, exact=False))
+        self.x, self.z = end_x, end_z
+        return Step(block, tuple(moves), self.modal)
+
+    def _program_flow(self, block: Block, words: _Words) -> Step:
+        if 98 in words.m:
+            self.reporter.warn(
+                "subprogram call M98: what the subprogram does is not interpreted; "
+                "position unknown until the next absolute move",
+                self._location(block, self._col(block, "M")),
+            )
+            step = self._motion(block, words) if self._has_axis(words) else Step(block, (), self.modal)
+            self._after_call()
+            return step
+        step = self._motion(block, words) if self._has_axis(words) else Step(block, (), self.modal)
+        if 99 in words.m:
+            self.x = self.z = None
+            self.variables = {}
+        else:  # M30, M02: the program ends; what follows is another program (a local subprogram)
+            self.x = self.z = None
+            self.variables = {}
+            self.modal = replace(self.modal, motion=None)
+        return step
+
+    def _after_call(self) -> None:
+        self.x = self.z = None
+        self.variables = {}
+
+    # ------------------------------------------------------------------ contour cycles
+
+    def _contour_cycle(self, block: Block, words: _Words, meaning: str) -> Step:
+        values = words.values
+        name = G.code_name(next(key for key in words.g if self.table[key][1] == meaning))
+        if "P" not in values or "Q" not in values:
+            if meaning == G.FINISH:
+                raise InterpretationError(f"{name} needs P and Q: the first and last blocks of its contour",
+                                          self._location(block, self._col(block, "G")))
+            return Step(block, (), self.modal)  # first block of the two-block format: depth and retract only
+        p, q = int(values["P"]), int(values["Q"])
+        p_line = self._label_line(block, "P", p, name)
+        q_line = self._label_line(block, "Q", q, name)
+        if q_line < p_line:
+            raise InterpretationError(f"{name}: Q{q} (line {q_line}) comes before P{p} (line {p_line})",
+                                      self._location(block, self._col(block, "Q")))
+        start = (self.x, self.z)
+        cycle_move = self._move(CYCLE, block, self.x, self.z, exact=None not in start)
+        if meaning != G.FINISH:
+            moves: tuple[Move, ...] = (cycle_move,)
+        else:
+            moves = ()
+        recorded = self.contours.get((p, q))
+        if p_line > block.line:
+            contour = _Contour(p, q, block.line, start=start)
+            self._expect = (contour, self.modal, start, name, meaning)
+            if meaning == G.FINISH:
+                return Step(block, (), self.modal)
+            return Step(block, moves, self.modal)
+        if q_line > block.line:
+            self.reporter.warn(
+                f"{name}: its contour N{p}..N{q} runs from line {p_line} to line {q_line}, around the cycle block; "
+                "the blocks up to N{q} are not interpreted".replace("{q}", str(q)),
+                self._location(block, self._col(block, "P")),
+            )
+            self._skip_until = q
+            return Step(block, moves, self.modal, interpreted=False)
+        if recorded is None:
+            recorded = self._reread_contour(p, q, p_line, q_line, block)
+        if meaning == G.FINISH:
+            moves = self._replay(recorded, block)
+        return Step(block, moves, self.modal)
+
+    def _label_line(self, block: Block, letter: str, label: int, name: str) -> int:
+        count = self.labels.counts.get(label, 0)
+        if count == 0:
+            raise InterpretationError(
+                f"{name} {letter}{label}: no block N{label} in the program (FANUC alarm PS0060)",
+                self._location(block, self._col(block, letter)),
+            )
+        if count > 1:
+            lines = self.labels.lines[label]
+            raise InterpretationError(
+                f"{name} {letter}{label}: N{label} stands on {count} blocks (lines {lines[0]}, {lines[1]}...); "
+                "the contour is ambiguous",
+                self._location(block, self._col(block, letter)),
+            )
+        return self.labels.lines[label][0]
+
+    def _start_expected_contour(self, block: Block) -> None:
+        contour, modal, start, name, meaning = self._expect
+        self._expect = None
+        if block.label != contour.p:
+            self.reporter.warn(
+                f"{name} (line {contour.cycle_line}): its contour N{contour.p}..N{contour.q} does not follow the "
+                f"cycle block; the blocks up to N{contour.q} are not interpreted",
+                self._location(block, self._first_col(block)),
+            )
+            self._skip_until = contour.q
+            return
+        self._capture = _Capture(contour, modal, start)
+        self.contours[(contour.p, contour.q)] = contour
+
+    def _contour_block(self, block: Block) -> None:
+        """Keep a contour block; after its Q block, resume at the cycle's start point."""
+        capture = self._capture
+        capture.contour.blocks.append(block)
+        if block.label == capture.contour.q:
+            self._capture = None
+            self.modal = capture.resume
+            self.x, self.z = capture.resume_at
+
+    def _reread_contour(self, p: int, q: int, p_line: int, q_line: int, block: Block) -> _Contour:
+        """A contour placed before its cycle that no earlier cycle recorded: read it again."""
+        if self._reread is None:
+            raise InterpretationError(f"contour N{p}..N{q} cannot be read again here", self._location(block, self._col(block, "P")))
+        contour = _Contour(p, q, block.line, blocks=list(self._reread(p_line, q_line)))
+        self.contours[(p, q)] = contour
+        return contour
+
+    def _replay(self, contour: _Contour, block: Block) -> tuple[Move, ...]:
+        """G70: run the contour's blocks from here as the finishing path, then return."""
+        start = (self.x, self.z)
+        saved_modal = self.modal
+        replay = Interpreter(self.profile, Reporter(), self.file, self.labels)
+        replay.x, replay.z = start
+        replay.modal = self.modal
+        replay.variables = dict(self.variables)
+        replay._work = self._work
+        moves: list[Move] = []
+        for step in replay.run(contour.blocks):
+            for move in step.moves:
+                moves.append(replace(move, role=REPLAY))
+        end = (replay.x, replay.z)
+        if end != start:
+            moves.append(Move(RAPID, block.line, end[0], end[1], start[0], start[1], feed=saved_modal.feed,
+                              per_rev=saved_modal.per_rev, comp=saved_modal.comp, tool=saved_modal.tool,
+                              exact=None not in start + end))
+        self.x, self.z = start
+        return tuple(moves)
+
+    # ------------------------------------------------------------------ positions in messages
+
+    def _location(self, block: Block, col: int | None) -> Location:
+        return Location(self.file, block.line, None if col is None else col + 1, block.text)
+
+    @staticmethod
+    def _col(block: Block, letter: str, occurrence: int = 1) -> int | None:
+        seen = 0
+        for word in block.words:
+            if word.letter == letter:
+                seen += 1
+                if seen == occurrence:
+                    return word.col
+        return None
+
+    @staticmethod
+    def _first_col(block: Block) -> int:
+        words = block.words
+        if words:
+            return words[0].col
+        return len(block.text) - len(block.text.lstrip())
+
+
+def interpret(blocks: Iterable[Block], **kwargs) -> Iterator[Step]:
+    return Interpreter(**kwargs).run(blocks)

@@ -1,0 +1,128 @@
+"""Machine profiles: what postproc must know about the control and the machine.
+
+A profile is a TOML file (read with :mod:`tomllib`); the embedded default is a FANUC
+18i-T-like two-axis lathe, metric, diameter programming, G-code system A, IS-B increments.
+Everything the interpreter, the segmenter and the safety checks assume about a machine
+comes from here, so a shop describes its lathe once.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .diagnostics import Location, OptionError
+
+INCREMENTS = {  # least input increment per system: (mm, inch)
+    "IS-A": (0.01, 0.001),
+    "IS-B": (0.001, 0.0001),
+    "IS-C": (0.0001, 0.00001),
+}
+
+
+@dataclass(frozen=True, slots=True)
+class MachineProfile:
+    """A lathe and its control. Lengths in mm unless the name says otherwise."""
+
+    name: str = "fanuc-18i-t"
+    controller: str = "FANUC Series 18i-TB"
+    gcode_system: str = "A"  #: FANUC lathe G-code system A, B or C
+    diameter_x: bool = True  #: X (and U) are diameters
+    input_increment: str = "IS-B"  #: least input increment system
+    calculator_input: bool = False  #: a number without a decimal point is in mm (parameter DPI)
+    axes: str = "XZ"  #: the axes this lathe has
+    arc_radius_tolerance: float = 0.01  #: the control's arc check: start and end radii may differ by this
+    max_arc_radius: float = 5000.0  #: an arc above this radius is emitted as lines
+    min_block_time_s: float = 0.001  #: shortest block the look-ahead digests at full feed
+    x_limits: tuple[float, float] = (-5.0, 265.0)  #: soft limits of X travel, radius mm
+    z_limits: tuple[float, float] = (-450.0, 450.0)  #: soft limits of Z travel
+    tolerance: float | None = None  #: default tolerance; None: formats.md's rule
+    max_correction: float = 0.1  #: largest correction allowed anywhere
+    output_decimals_mm: int = 3  #: decimals written for mm values
+    output_decimals_inch: int = 4  #: decimals written for inch values
+    spindle_speed_fluctuation: bool = False
+    extra: dict[str, Any] = field(default_factory=dict, compare=False)
+
+    def increment(self, inch: bool) -> float:
+        """Least input increment in program units."""
+        return INCREMENTS[self.input_increment][1 if inch else 0]
+
+    def resolution_mm(self, inch: bool) -> float:
+        """Output resolution in millimetres."""
+        decimals = self.output_decimals_inch if inch else self.output_decimals_mm
+        return 10.0**-decimals * (25.4 if inch else 1.0)
+
+    def default_tolerance(self, inch: bool) -> float:
+        """formats.md: 0.001 mm or twice the output resolution, whichever is larger."""
+        if self.tolerance is not None:
+            return self.tolerance
+        return max(0.001, 2.0 * self.resolution_mm(inch))
+
+
+DEFAULT = MachineProfile()
+
+_FIELDS = {f.name: f for f in dataclasses.fields(MachineProfile) if f.name != "extra"}
+
+
+def load(path: str) -> MachineProfile:
+    """Read a profile from TOML; unknown keys are refused (``x-`` keys are kept aside)."""
+    try:
+        data = tomllib.loads(Path(path).read_text("utf-8"))
+    except OSError as exc:
+        raise OptionError(f"cannot read machine profile: {exc.strerror}", Location(path)) from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise OptionError(f"not a valid TOML machine profile: {exc}", Location(path)) from None
+    return from_mapping(data, path)
+
+
+def from_mapping(data: dict[str, Any], origin: str = "<profile>") -> MachineProfile:
+    values: dict[str, Any] = {}
+    extra: dict[str, Any] = {}
+    for key, value in data.items():
+        name = key.replace("-", "_")
+        if key.startswith("x-"):
+            extra[key] = value
+            continue
+        if name not in _FIELDS:
+            raise OptionError(f"unknown key {key!r} in machine profile", Location(origin))
+        values[name] = _checked(name, value, origin)
+    profile = MachineProfile(**values, extra=extra)
+    if profile.gcode_system not in ("A", "B", "C"):
+        raise OptionError("gcode_system must be A, B or C", Location(origin))
+    if profile.input_increment not in INCREMENTS:
+        raise OptionError(f"input_increment must be one of {', '.join(INCREMENTS)}", Location(origin))
+    return profile
+
+
+def _checked(name: str, value: Any, origin: str) -> Any:
+    default = getattr(DEFAULT, name)
+    if isinstance(default, tuple):
+        if not (isinstance(value, list) and len(value) == 2 and all(_is_number(v) for v in value)):
+            raise OptionError(f"{name} must be a list of two numbers", Location(origin))
+        low, high = float(value[0]), float(value[1])
+        if not low < high:
+            raise OptionError(f"{name}: the first limit must be below the second", Location(origin))
+        return (low, high)
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            raise OptionError(f"{name} must be true or false", Location(origin))
+        return value
+    if isinstance(default, int) and not isinstance(default, bool):
+        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+            raise OptionError(f"{name} must be a whole number", Location(origin))
+        return value
+    if isinstance(default, float) or name == "tolerance":
+        if not _is_number(value) or not math.isfinite(value) or value <= 0:
+            raise OptionError(f"{name} must be a positive number", Location(origin))
+        return float(value)
+    if not isinstance(value, str):
+        raise OptionError(f"{name} must be a string", Location(origin))
+    return value
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)

@@ -1,0 +1,56 @@
+"""Lines to blocks: the fast path where it serves, the grammar everywhere else.
+
+The reader streams: it holds one line at a time. It knows the tape structure of a
+program: a leading ``%``, the blocks, and the closing ``%`` after which the control
+reads nothing (that text is kept, as trailer, and never parsed).
+"""
+
+from __future__ import annotations
+
+from typing import Iterable, Iterator
+
+from .blocks import BLANK, TRAILER, Block
+from .diagnostics import Location, Reporter
+from .fastpath import read_ordinary
+from .syntax import parse_block
+
+
+def read_blocks(lines: Iterable[tuple[str, str]], file: str, reporter: Reporter | None = None) -> Iterator[Block]:
+    """Blocks of a program given as ``(text, eol)`` lines; raises ProgramSyntaxError."""
+    started = ended = False
+    line = 0
+    for text, eol in lines:
+        line += 1
+        if ended:
+            if text.strip() and reporter is not None and ended is True:
+                reporter.warn("text after the closing '%' is never read by the control", Location(file, line, 1, text))
+                ended = "warned"
+            yield Block(line, text, eol, TRAILER)
+            continue
+        block = read_ordinary(text, line, eol)
+        if block is None:
+            block = parse_block(text, line, eol, file)
+            if reporter is not None:
+                _note_spaced_numbers(block, file, reporter)
+            if block.kind == "tape":
+                if started:
+                    ended = True
+                started = True
+                yield block
+                continue
+        if block.kind != BLANK:
+            started = True
+        yield block
+
+
+def _note_spaced_numbers(block: Block, file: str, reporter: Reporter) -> None:
+    """FANUC ignores spaces, even inside a number: say so where it changes what one reads."""
+    for word in block.words:
+        if word.is_number:
+            address_end = next(i for i, char in enumerate(word.text) if char.isalpha()) + 1
+            spelled = word.text[address_end:].strip()
+            if " " in spelled or "\t" in spelled:
+                reporter.warn(
+                    f"space inside a number: {word.text!r} is read as {word.letter}{word.value}",
+                    Location(file, block.line, word.col + 1, block.text),
+                )

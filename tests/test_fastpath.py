@@ -1,0 +1,75 @@
+"""The fast path against the grammar: for every line the fast path takes, the same block.
+
+This is the proof the fast path owes: on every line of the corpus and on generated
+lines, a block read by the regular expression equals the block the grammar reads,
+down to word spellings, columns, comments and the end-of-block mark.
+"""
+
+from __future__ import annotations
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from conftest import corpus
+from postproc.diagnostics import ProgramSyntaxError
+from postproc.fastpath import read_ordinary
+from postproc.source import Source
+from postproc.syntax import parse_block
+from strategies import comments, lines, words
+
+
+def _view(block):
+    """Everything a block says, for comparison."""
+    detail = block.detail
+    return (
+        block.kind,
+        block.label,
+        block.delete,
+        block.codes,
+        block.statement,
+        detail.words,
+        detail.comments,
+        detail.label_col,
+        detail.eob_col,
+    )
+
+
+def _agree(text: str) -> bool:
+    """Whether the fast path took the line; asserts it read it as the grammar does."""
+    fast = read_ordinary(text, 1, "\n")
+    if fast is None:
+        return False
+    slow = parse_block(text, 1, "\n", "t.nc")
+    assert _view(fast) == _view(slow), text
+    return True
+
+
+def test_corpus_lines_agree_and_most_take_the_fast_path():
+    taken = total = 0
+    for folder in ("fanuc", "fanuc-mill", "linuxcnc", "malformed"):
+        for path in corpus(folder):
+            for text, _ in Source(str(path)).lines():
+                total += 1
+                taken += _agree(text)
+    assert taken / total > 0.8, f"only {taken} of {total} lines took the fast path"
+
+
+@settings(max_examples=600, deadline=None)
+@given(lines())
+def test_generated_lines_agree(text):
+    _agree(text)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.one_of(words(), comments(), st.sampled_from([" ", "\t", ";", "N10", "(", ")", ".", "#1", ","])), max_size=8))
+def test_arbitrary_fragments_agree_or_are_refused_by_both(parts):
+    """Fragments glued without care: when the fast path takes one, the grammar reads it the same."""
+    text = "".join(parts)
+    fast = read_ordinary(text, 1, "\n")
+    try:
+        slow = parse_block(text, 1, "\n", "t.nc")
+    except ProgramSyntaxError:
+        assert fast is None, text
+        return
+    if fast is not None:
+        assert _view(fast) == _view(slow), text

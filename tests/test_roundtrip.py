@@ -1,0 +1,74 @@
+"""Round trips: what the corpus README asks of each folder, through the command line."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+
+from conftest import SAMPLES, corpus
+from postproc.reader import read_blocks
+from postproc.source import Source
+from strategies import lathe_programs
+
+
+def _programs():
+    samples = sorted(SAMPLES.glob("**/*.nc"))
+    return corpus("fanuc") + samples
+
+
+@pytest.mark.parametrize("path", _programs(), ids=lambda p: p.name)
+def test_lathe_programs_come_back_byte_for_byte(run, path):
+    data = path.read_bytes()
+    by_file = run("compensate", str(path))
+    assert by_file.exit_code == 0, by_file.stderr
+    assert by_file.stdout_bytes == data
+    by_stdin = run("compensate", input=data)
+    assert by_stdin.exit_code == 0, by_stdin.stderr
+    assert by_stdin.stdout_bytes == data
+    checked = run("check", str(path))
+    assert checked.exit_code == 0, checked.stderr
+    assert checked.stdout == ""
+
+
+@pytest.mark.parametrize("path", corpus("fanuc-mill"), ids=lambda p: p.name)
+def test_mill_programs_parse_losslessly(path):
+    with Source(str(path)) as source:
+        blocks = list(read_blocks(source.lines(), source.name))
+        assert b"".join(b.raw.encode("utf-8", "surrogateescape") for b in blocks) == path.read_bytes()
+        # every word's spelling is a piece of its line, at its column
+        for block in blocks:
+            for word in block.words:
+                assert block.text[word.col : word.end] == word.text
+
+
+MALFORMED = {
+    "kiely_O58215_snowman.nc": (15, 5, "N45 stands on 3 blocks"),
+    "mill_meloc_program_010.nc": (11, 9, "second decimal point"),
+    "mill_selyaev_2_main_malformed.nc": (15, 10, "unexpected character ':'"),
+}
+
+
+@pytest.mark.parametrize("path", corpus("malformed"), ids=lambda p: p.name)
+def test_malformed_programs_are_refused_with_a_position_and_no_output(run, path, tmp_path):
+    line, col, words = MALFORMED[path.name]
+    target = tmp_path / "out.nc"
+    for args in (("compensate", str(path)), ("compensate", str(path), "-o", str(target)), ("check", str(path))):
+        result = run(*args)
+        assert result.exit_code == 3
+        assert result.stdout_bytes == b""
+        first = result.stderr.splitlines()[0]
+        assert re.match(rf"^{re.escape(str(path))}:{line}:{col}: error: ", first), first
+        assert words in first
+    assert not target.exists()
+    assert list(tmp_path.iterdir()) == []  # not even a temporary file is left
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(lathe_programs())
+def test_generated_programs_come_back_byte_for_byte(run, text):
+    data = text.encode()
+    result = run("compensate", input=data)
+    assert result.exit_code == 0, result.stderr
+    assert result.stdout_bytes == data
