@@ -389,6 +389,8 @@ class Interpreter:
             raise _Uninterpretable("a drilling cycle (G83-G89) is not modelled")
         if self._has_axis(words) or any(letter in words.unknown for letter in "XZUW"):
             return self._motion(block, words)
+        if self.modal.motion in (G.G02, G.G03) and ("I" in words.values or "K" in words.values):
+            return self._motion(block, words)  # a full circle: the end is the start
         return Step(block, (), self.modal)
 
     def _modal_setting(self, modal: Modal, meaning, key: int) -> Modal:

@@ -244,3 +244,8 @@ def test_g53_and_g28_alone():
 def test_full_circle_with_i_k():
     arc = moves(START + "G01 X20. Z0.\nG02 X20. Z0. I-5. K0.\n")[-1]
     assert geometry(arc)[2:6] == ((10.0, 0.0), (10.0, 0.0), (5.0, 0.0), "cw")
+
+
+def test_full_circle_without_end_point():
+    arc = moves(START + "G01 X20. Z0.\nG03 I0. K5.\n")[-1]
+    assert geometry(arc)[2:6] == ((10.0, 0.0), (10.0, 0.0), (10.0, 5.0), "ccw")
