@@ -1,0 +1,1 @@
+"""Measurements: ballbar traces, probe points and probe calibrations (formats.md)."""
