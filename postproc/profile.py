@@ -84,7 +84,7 @@ def from_mapping(data: dict[str, Any], origin: str = "<profile>") -> MachineProf
     extra: dict[str, Any] = {}
     for key, value in data.items():
         name = key.replace("-", "_")
-        if key.startswith("x-"):
+        if key.startswith("x-") or key == "simulation":  # the virtual machine's own table
             extra[key] = value
             continue
         if name not in _FIELDS:
