@@ -67,32 +67,54 @@ def main() -> None:
 @click.option("--tolerance", type=float, metavar="MM", help="Largest deviation of the emitted path.")
 @click.option("--mode", type=click.Choice(["auto", "arc", "line"]), default="auto", show_default=True)
 @click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
+@click.option("--max-correction", type=float, metavar="MM", help="Refuse corrections larger than this.")
+@click.option("--force", is_flag=True, help="Compensate a program postproc compensated before.")
 @_reported
-def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, model, machine, tolerance, mode, options):
+def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, model, machine, tolerance, mode,
+               options, max_correction, force):
     """Compensate part programs; with no compensator, write the input back byte for byte."""
     inputs = inputs or ("-",)
     if output and out_dir:
         raise UsageError("give -o or --out-dir, not both")
     if len(inputs) > 1 and not out_dir:
         raise UsageError("several inputs need --out-dir")
-    measurements = ballbar or probe or calibration
-    if measurements and not plugins:
+    if (ballbar or probe or calibration) and not plugins:
         raise UsageError("measurements were given but no compensator (--plugin) to use them")
     if options and not plugins and not model:
         raise UsageError("--option was given but no compensator (--plugin) to take it")
-    if plugins or model:
-        raise UsageError(f"no compensator named {plugins[0] if plugins else 'from ' + model!r} is installed")
     profile = _profile(machine)
+    reporter = Reporter(sys.stderr)
+    pipeline = None
+    if plugins or model:
+        from .pipeline import Pipeline, Request
+
+        request = Request(list(plugins), list(ballbar), list(probe), calibration, model, list(options), tolerance,
+                          mode, max_correction, force)
+        pipeline = Pipeline(request, profile, reporter)
     for name in inputs:
         destination = os.path.join(out_dir, os.path.basename(name)) if out_dir else (output or STDOUT)
-        _identity(name, destination, profile)
+        if pipeline is None:
+            _identity(name, destination, profile, reporter)
+        else:
+            _compensate(pipeline, name, destination)
+    reporter.close()
 
 
-def _identity(name: str, destination: str, profile: profiles.MachineProfile) -> None:
+def _compensate(pipeline, name: str, destination: str) -> None:
+    with Source(name) as source, Spool(destination) as spool:
+        rewriter = pipeline.run(source, spool)
+        spool.commit()
+        click.echo(
+            f"{source.name}: {rewriter.replaced} blocks replaced by {rewriter.emitted}; largest correction "
+            f"{rewriter.largest * 1000:.2f} um; largest deviation from the intended path {rewriter.worst * 1000:.3f} um",
+            err=True,
+        )
+
+
+def _identity(name: str, destination: str, profile: profiles.MachineProfile, reporter: Reporter) -> None:
     """Parse and interpret the program, then write it back unchanged."""
     from .program import interpret_source
 
-    reporter = Reporter(sys.stderr)
     with Source(name) as source:
         for _ in interpret_source(source, profile, reporter):
             pass
@@ -101,7 +123,6 @@ def _identity(name: str, destination: str, profile: profiles.MachineProfile) -> 
                 while chunk := raw.read(1 << 20):
                     spool.write(chunk)
             spool.commit()
-    reporter.close()
 
 
 @main.command()
@@ -145,8 +166,7 @@ def path(input, machine, output):
 @_reported
 def list_plugins():
     """The installed compensators, one per line: name, version, description."""
-    from importlib.metadata import entry_points
+    from .plugins import compensators
 
-    for entry in sorted(entry_points(group="postproc"), key=lambda e: e.name):
-        version = entry.dist.version if entry.dist else "?"
-        click.echo(f"{entry.name} {version}")
+    for name, item in sorted(compensators().items()):
+        click.echo(f"{name} {item.version} {item.cls.summary()}")

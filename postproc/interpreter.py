@@ -194,7 +194,7 @@ class Interpreter:
             step = self._uninterpretable(block, exc)
         if in_contour:
             step.in_contour = True
-            self._contour_block(block)
+            step.contour_end = self._contour_block(block)
         return step
 
     def _uninterpretable(self, block: Block, exc: _Uninterpretable) -> Step:
@@ -779,14 +779,16 @@ class Interpreter:
         self._capture = _Capture(contour, modal, start)
         self.contours[(contour.p, contour.q)] = contour
 
-    def _contour_block(self, block: Block) -> None:
+    def _contour_block(self, block: Block) -> bool:
         """Keep a contour block; after its Q block, resume at the cycle's start point."""
         capture = self._capture
         capture.contour.blocks.append(block)
-        if block.label == capture.contour.q:
-            self._capture = None
-            self.modal = capture.resume
-            self.x, self.z = capture.resume_at
+        if block.label != capture.contour.q:
+            return False
+        self._capture = None
+        self.modal = capture.resume
+        self.x, self.z = capture.resume_at
+        return True
 
     def _reread_contour(self, p: int, q: int, p_line: int, q_line: int, block: Block) -> _Contour:
         """A contour placed before its cycle that no earlier cycle recorded: read it again."""

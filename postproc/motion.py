@@ -88,3 +88,4 @@ class Step:
     modal: Modal  #: state after the block
     interpreted: bool = True  #: False when the block could not be interpreted (it passes through)
     in_contour: bool = False  #: the block belongs to a P..Q cycle contour
+    contour_end: bool = False  #: the block is its contour's last (the Q label the cycle looks for)

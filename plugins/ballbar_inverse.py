@@ -1,0 +1,126 @@
+"""ballbar-inverse: the ballbar trace inverted about the nominal, on every feed arc."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from postproc.compensator import Compensator, Measurements, Option, Piece
+from postproc.diagnostics import Location, MeasurementError, OptionError
+from postproc.geometry import Arc
+from postproc.hookspecs import hookimpl
+from postproc.measurements.ballbar import BallbarTrace, pair
+from postproc.traces import trace_from_model, trace_model
+
+MAPPINGS = ("absolute", "relative", "center-offset")
+
+
+class BallbarInverse(Compensator):
+    """Invert a ballbar trace about the nominal on every feed arc (methods.md 4 and 6).
+
+    What it corrects: the radial error the ballbar saw, at each angle, on arcs cut with
+    the same motion: every G02/G03 feed arc takes ``-e(theta)`` along its radius, theta
+    measured about the arc's own centre (eq. 6.1). Lines are left alone.
+
+    What it needs: ``--ballbar`` with one trace, or a CCW and a CW trace of one test (G03
+    arcs then take the CCW trace, G02 arcs the CW one; with one trace, arcs of the other
+    direction take it with a warning). The trace must cover each arc's span without a gap
+    wider than ``max-gap`` degrees.
+
+    Options:
+
+    - ``radius-mapping=absolute|relative|center-offset`` (methods.md 6): ``absolute`` applies
+      the error of the same angle (eq. 6.3), ``relative`` scales it by the arc's radius over
+      the trace's (eq. 6.4), ``center-offset`` keeps only a translation: the trace over the
+      arc's span is fitted as a circle of the nominal radius, and the arc's centre moves by
+      minus its shift. Required when an arc's radius differs from the trace's by over 5 %.
+    - ``max-gap=DEG`` (default 5).
+
+    Example: a trace that reads +5 um all round the 57.15 mm hemishell arc::
+
+        G03 X114.3 Z0. I0. K-57.15   becomes   G03 X114.29 Z0. I0. K-57.145
+    """
+
+    name = "ballbar-inverse"
+    takes = ("ballbar",)
+    needs = ("ballbar",)
+    options = (
+        Option("radius-mapping", str, None, "how a trace applies to an arc of another radius", MAPPINGS),
+        Option("max-gap", float, 5.0, "largest gap in the trace over an arc's span, degrees", positive=True),
+    )
+
+    def fit(self, measurements: Measurements) -> None:
+        traces = measurements.ballbar
+        if len(traces) > 2:
+            raise MeasurementError(f"{self.name} takes one trace or a CCW and a CW trace; {len(traces)} given",
+                                   Location(traces[2].path))
+        if len(traces) == 2:
+            ccw, cw = pair(traces)
+            self.traces = {"ccw": ccw, "cw": cw}
+        else:
+            self.traces = {traces[0].direction: traces[0]}
+        self._warned = False
+
+    def _trace(self, cw: bool) -> BallbarTrace:
+        direction = "cw" if cw else "ccw"
+        trace = self.traces.get(direction)
+        if trace is None:
+            trace = next(iter(self.traces.values()))
+            if not self._warned:
+                self._warned = True
+                self.context.reporter.warn(
+                    f"{self.name}: {'G02' if cw else 'G03'} arcs take the {trace.direction} trace: no {direction} trace given",
+                    Location(trace.path))
+        return trace
+
+    def correct(self, piece: Piece) -> np.ndarray | None:
+        arc = piece.segment
+        if not isinstance(arc, Arc):
+            return None
+        trace = self._trace(arc.cw)
+        points = piece.points
+        radial = (points - np.array(arc.centre)) / arc.r
+        theta = np.degrees(np.arctan2(radial[:, 1], radial[:, 0]))
+        start, end = sorted((math.degrees(arc.theta0), math.degrees(arc.theta1)))
+        trace.require(start % 360.0, end % 360.0, self.settings["max-gap"], f"{self.name} on the arc of line {piece.move.line}")
+        mapping = self.settings["radius-mapping"]
+        if mapping is None:
+            if abs(arc.r - trace.radius) > 0.05 * trace.radius:
+                raise OptionError(
+                    f"{self.name}: the arc of line {piece.move.line} has radius {arc.r:.3f} mm, the trace "
+                    f"{trace.radius:.3f} mm; give --option radius-mapping=absolute|relative|center-offset")
+            mapping = "absolute"
+        if mapping == "center-offset":
+            shift = self._centre_shift(trace, start, end)
+            return np.broadcast_to(-np.array(shift), points.shape).copy()
+        error = trace.at(theta)
+        if mapping == "relative":
+            error = error * arc.r / trace.radius
+        return -error[:, None] * radial
+
+    @staticmethod
+    def _centre_shift(trace: BallbarTrace, start: float, end: float) -> tuple[float, float]:
+        """The shift of a circle of the trace's radius fitted to the trace over [start, end]."""
+        from postproc.fitting import fit_centre
+
+        inside = ((trace.angles - start) % 360.0) <= ((end - start) % 360.0 or 360.0)
+        points = trace.points()[inside] - np.array(trace.centre)
+        fit = fit_centre(points, trace.radius, start=(0.0, 0.0))
+        return fit.xc, fit.zc
+
+    def model(self) -> dict:
+        return {"traces": {direction: trace_model(trace) for direction, trace in self.traces.items()}}
+
+    def load(self, model: dict) -> None:
+        self.traces = {direction: trace_from_model(data, direction) for direction, data in model["traces"].items()}
+        self._warned = False
+
+    def report(self) -> dict:
+        return {direction: {"file": trace.path, "radius_mm": trace.radius, "setup_centre_mm": list(trace.setup_centre)}
+                for direction, trace in self.traces.items()}
+
+
+@hookimpl
+def postproc_compensators():
+    return [BallbarInverse]

@@ -1,0 +1,171 @@
+"""Writing blocks in the program's own style.
+
+A replaced block becomes one or more blocks that look as if the programmer had written
+them: the same letter case, the same spacing between words, the same decimal style
+(``X114.3`` or ``X114.300``, ``X.5`` or ``X0.5``), ``;`` at the end if the block had one,
+and its own line ending. Numbers always carry a decimal point, so that no value is ever
+read in least input increments. The replaced block's label, feed, spindle, M words, other
+G codes and comments stay with its first replacement block (a label that ends a cycle
+contour goes on the last: the cycle looks for it there).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from . import gcodes as G
+from .blocks import Block
+from .resolution import Grid
+from .segmenter import Cut
+
+_GEOMETRY = frozenset("XZUWIKR") | {",C", ",R", ",A"}
+_TRAILING_ZERO = re.compile(r"\.\d*0$")
+_LEADING_DOT = re.compile(r"^[+-]?\.\d")
+
+
+@dataclass(frozen=True)
+class Style:
+    lower: bool = False
+    separator: str = " "
+    two_digit_g: bool = True
+    trim: bool = True  #: 114.3 rather than 114.300
+    leading_zero: bool = True  #: 0.5 rather than .5
+    eob: bool = False
+
+    @classmethod
+    def of(cls, block: Block) -> "Style":
+        """The style a block is written in."""
+        words = block.words
+        letters = [w.text[0] for w in words if w.text[:1].isalpha()]
+        lower = bool(letters) and all(letter.islower() for letter in letters)
+        separator = " "
+        if len(words) >= 2:
+            gaps = [block.text[a.end : b.col] for a, b in zip(words, words[1:])]
+            if all(gap == "" for gap in gaps):
+                separator = ""
+        g_words = [w for w in words if w.letter == "G" and w.is_number]
+        two_digit = all(len(w.value) >= 2 for w in g_words) if g_words else True
+        numbers = [w.value for w in words if w.letter in "XZUWIKRF" and w.is_number and "." in w.value]
+        trim = not any(_TRAILING_ZERO.search(value) for value in numbers)
+        leading_zero = not any(_LEADING_DOT.match(value) for value in numbers)
+        return cls(lower, separator, two_digit, trim, leading_zero, block.has_eob)
+
+    def number(self, value: float, decimals: int) -> str:
+        text = f"{value:.{decimals}f}"
+        if text.startswith("-") and float(text) == 0.0:
+            text = text[1:]
+        if self.trim:
+            text = text.rstrip("0")
+        if not self.leading_zero:
+            text = re.sub(r"^(-?)0\.(?=\d)", r"\1.", text)
+        return text
+
+    def word(self, letter: str, text: str) -> str:
+        return (letter.lower() if self.lower else letter) + text
+
+    def g(self, key: int) -> str:
+        whole, tenth = divmod(key, 10)
+        digits = f"{whole:02d}" if self.two_digit_g else f"{whole}"
+        return self.word("G", digits if tenth == 0 else f"{digits}.{tenth}")
+
+
+@dataclass
+class Writer:
+    """Turns planned cuts into block text for one program."""
+
+    grid: Grid
+    system: str = "A"
+    absolute: bool = True  #: G90 in systems B and C (X and Z absolute)
+
+    @staticmethod
+    def motion_of(cut: Cut) -> int:
+        """The motion mode (G00, G01, G02, G03 as interpreter modes) that runs a cut."""
+        if cut.rapid:
+            return G.G00
+        if not cut.is_arc:
+            return G.G01
+        return G.G02 if cut.cw else G.G03
+
+    def code(self, mode: int, style: Style) -> str:
+        return style.g(G.motion_code(self.system, mode))
+
+    def geometry_words(self, cut: Cut, style: Style) -> list[str]:
+        grid = self.grid
+        x_word, z_word = grid.x_word(cut.x1), grid.z_word(cut.z1)
+        if not self.absolute:
+            x_word = round(x_word - grid.x_word(cut.x0), grid.decimals)
+            z_word = round(z_word - grid.z_word(cut.z0), grid.decimals)
+        words = [style.word("X", style.number(x_word, grid.decimals)), style.word("Z", style.number(z_word, grid.decimals))]
+        if cut.is_arc:
+            i_word = grid.offset_word(cut.xc - cut.x0)
+            k_word = grid.offset_word(cut.zc - cut.z0)
+            words += [style.word("I", style.number(i_word, grid.decimals)), style.word("K", style.number(k_word, grid.decimals))]
+        return words
+
+    def replacement(self, block: Block, cuts: list[Cut], mode_before, label_last: bool = False) -> tuple[list[str], int]:
+        """The text lines (with line endings) that replace ``block``, and the motion mode after them."""
+        style = Style.of(block)
+        eob = ";" if style.eob else ""
+        lines = []
+        mode = mode_before
+        for index, cut in enumerate(cuts):
+            wanted = self.motion_of(cut)
+            if index == 0:
+                parts = self._first_words(block, style, wanted, mode, cut, label_last)
+            else:
+                parts = [self.code(wanted, style)] if wanted != mode else []
+                parts += self.geometry_words(cut, style)
+            if label_last and index == len(cuts) - 1 and block.label is not None:
+                parts.insert(0, _label(block))
+            mode = wanted
+            last = index == len(cuts) - 1
+            lines.append(style.separator.join(parts) + eob + (block.eol if last else (block.eol or "\n")))
+        return lines, mode
+
+    def _first_words(self, block: Block, style: Style, wanted: int, mode, cut: Cut, label_last: bool) -> list[str]:
+        """The replaced block's words with its geometry (and motion G code) swapped for the cut's."""
+        parts: list[str] = []
+        if block.label is not None and not label_last:
+            parts.append(_label(block))
+        placed = False
+        motion_written = False
+        for word in block.words:
+            if word.letter in _GEOMETRY:
+                if not placed:
+                    if wanted != mode and not motion_written:
+                        parts.append(self.code(wanted, style))
+                        motion_written = True
+                    parts += self.geometry_words(cut, style)
+                    placed = True
+                continue
+            if word.letter == "G" and word.is_number and G.SYSTEMS[self.system].get(G.code_key(float(word.value)), ("",))[0] == G.MOTION:
+                if not motion_written:
+                    parts.append(self.code(wanted, style))
+                    motion_written = True
+                continue
+            parts.append(word.text)
+        if not placed:
+            if wanted != mode and not motion_written:
+                parts.append(self.code(wanted, style))
+            parts += self.geometry_words(cut, style)
+        parts += [comment.text for comment in block.comments]
+        return parts
+
+
+def _label(block: Block) -> str:
+    text = block.text
+    col = block.detail.label_col
+    match = re.match(r"[Nn][ \t]*\d+", text[col:])
+    return match.group(0)
+
+
+def with_motion_code(block: Block, code: str) -> str:
+    """An unchanged block with the motion G code it relied on written in front of its words.
+
+    A replacement may leave the control in another motion mode than the original block left
+    it; the next block that relied on the old mode gets the code written out.
+    """
+    words = block.words
+    col = words[0].col if words else len(block.text)
+    return block.text[:col] + code + (Style.of(block).separator or "") + block.text[col:] + block.eol

@@ -1,0 +1,251 @@
+"""Plane geometry in radius coordinates (x, z): lines, arcs and profiles made of them.
+
+Conventions (formats.md): ``theta`` about a centre is measured from +X towards +Z,
+``x = xc + r cos(theta)``, ``z = zc + r sin(theta)``; an arc's ``sweep`` is signed, positive
+for G02 (theta increasing, ``cw``) and negative for G03. Batches of points are numpy arrays
+of shape (n, 2) holding (x, z) rows; a parameter ``t`` runs from 0 at a segment's start to 1
+at its end.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+TAU = 2.0 * math.pi
+
+
+def as_points(points) -> np.ndarray:
+    array = np.asarray(points, dtype=float)
+    return array.reshape(-1, 2)
+
+
+@dataclass(frozen=True, slots=True)
+class Line:
+    x0: float
+    z0: float
+    x1: float
+    z1: float
+
+    @property
+    def start(self) -> tuple[float, float]:
+        return (self.x0, self.z0)
+
+    @property
+    def end(self) -> tuple[float, float]:
+        return (self.x1, self.z1)
+
+    @property
+    def length(self) -> float:
+        return math.hypot(self.x1 - self.x0, self.z1 - self.z0)
+
+    @property
+    def direction(self) -> tuple[float, float]:
+        length = self.length
+        if length == 0.0:
+            return (0.0, 0.0)
+        return ((self.x1 - self.x0) / length, (self.z1 - self.z0) / length)
+
+    def point_at(self, t) -> np.ndarray:
+        t = np.asarray(t, dtype=float)[..., None]
+        return np.array(self.start) + t * (np.array(self.end) - np.array(self.start))
+
+    def tangent_at(self, t) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        return np.broadcast_to(np.array(self.direction), t.shape + (2,)).copy()
+
+    def param_of(self, points) -> np.ndarray:
+        """The parameter of each point's foot on the infinite line (not clamped)."""
+        p = as_points(points)
+        d = np.array(self.end) - np.array(self.start)
+        denominator = float(d @ d)
+        if denominator == 0.0:
+            return np.zeros(len(p))
+        return ((p - np.array(self.start)) @ d) / denominator
+
+    def closest(self, points) -> tuple[np.ndarray, np.ndarray]:
+        """(t, foot) of the nearest point of the segment to each point."""
+        t = np.clip(self.param_of(points), 0.0, 1.0)
+        return t, self.point_at(t)
+
+    def distance(self, points) -> np.ndarray:
+        p = as_points(points)
+        return np.linalg.norm(p - self.closest(p)[1], axis=1)
+
+    def reversed(self) -> "Line":
+        return Line(self.x1, self.z1, self.x0, self.z0)
+
+
+@dataclass(frozen=True, slots=True)
+class Arc:
+    xc: float
+    zc: float
+    r: float
+    theta0: float  #: start angle, radians
+    sweep: float  #: signed, radians: positive for G02 (theta increasing)
+
+    @classmethod
+    def through(cls, start, end, centre, cw: bool, full: bool = False) -> "Arc":
+        """The arc about ``centre`` from ``start`` to ``end`` in the G02 (cw) or G03 direction."""
+        xc, zc = centre
+        theta0 = math.atan2(start[1] - zc, start[0] - xc)
+        theta1 = math.atan2(end[1] - zc, end[0] - xc)
+        if cw:
+            sweep = (theta1 - theta0) % TAU
+        else:
+            sweep = -((theta0 - theta1) % TAU)
+        if sweep == 0.0 and full:
+            sweep = TAU if cw else -TAU
+        return cls(xc, zc, math.hypot(start[0] - xc, start[1] - zc), theta0, sweep)
+
+    @property
+    def cw(self) -> bool:
+        return self.sweep > 0
+
+    @property
+    def centre(self) -> tuple[float, float]:
+        return (self.xc, self.zc)
+
+    @property
+    def theta1(self) -> float:
+        return self.theta0 + self.sweep
+
+    @property
+    def start(self) -> tuple[float, float]:
+        return (self.xc + self.r * math.cos(self.theta0), self.zc + self.r * math.sin(self.theta0))
+
+    @property
+    def end(self) -> tuple[float, float]:
+        return (self.xc + self.r * math.cos(self.theta1), self.zc + self.r * math.sin(self.theta1))
+
+    @property
+    def length(self) -> float:
+        return abs(self.sweep) * self.r
+
+    def point_at(self, t) -> np.ndarray:
+        theta = self.theta0 + np.asarray(t, dtype=float) * self.sweep
+        return np.stack([self.xc + self.r * np.cos(theta), self.zc + self.r * np.sin(theta)], axis=-1)
+
+    def tangent_at(self, t) -> np.ndarray:
+        theta = self.theta0 + np.asarray(t, dtype=float) * self.sweep
+        sign = 1.0 if self.sweep >= 0 else -1.0
+        return np.stack([-sign * np.sin(theta), sign * np.cos(theta)], axis=-1)
+
+    def param_of(self, points) -> np.ndarray:
+        """Parameter of each point's angle along the sweep; beyond [0, 1] when outside it.
+
+        An angle outside the sweep is placed on the side it is nearer to, so clamping gives
+        the nearer end.
+        """
+        p = as_points(points)
+        theta = np.arctan2(p[:, 1] - self.zc, p[:, 0] - self.xc)
+        sign = 1.0 if self.sweep >= 0 else -1.0
+        along = (sign * (theta - self.theta0)) % TAU  # 0..2pi in the direction of travel
+        span = abs(self.sweep)
+        beyond = along > span
+        behind = beyond & (along - span > (TAU - along))
+        along = np.where(behind, along - TAU, along)
+        return along / span if span > 0 else np.zeros(len(p))
+
+    def closest(self, points) -> tuple[np.ndarray, np.ndarray]:
+        t = np.clip(self.param_of(points), 0.0, 1.0)
+        return t, self.point_at(t)
+
+    def distance(self, points) -> np.ndarray:
+        p = as_points(points)
+        return np.linalg.norm(p - self.closest(p)[1], axis=1)
+
+    def radial(self, points) -> np.ndarray:
+        """Distance of each point from the centre minus the radius (positive outside)."""
+        p = as_points(points)
+        return np.hypot(p[:, 0] - self.xc, p[:, 1] - self.zc) - self.r
+
+    def reversal_params(self) -> list[float]:
+        """Parameters strictly inside the arc where an axis reverses (theta a multiple of 90 deg)."""
+        span = abs(self.sweep)
+        sign = 1.0 if self.sweep >= 0 else -1.0
+        found = []
+        for k in range(-8, 9):
+            theta = k * math.pi / 2
+            along = (sign * (theta - self.theta0)) % TAU
+            if 1e-9 < along < span - 1e-9:
+                found.append(along / span)
+        return sorted(set(round(t, 12) for t in found))
+
+    def reversed(self) -> "Arc":
+        return Arc(self.xc, self.zc, self.r, self.theta1, -self.sweep)
+
+
+Segment = Line | Arc
+
+
+@dataclass(frozen=True)
+class Profile:
+    """A chain of lines and arcs with an arc-length parameter along it."""
+
+    segments: tuple[Segment, ...]
+
+    @cached_property
+    def offsets(self) -> np.ndarray:
+        """Arc length at the start of each segment, and the total at the end."""
+        return np.concatenate([[0.0], np.cumsum([segment.length for segment in self.segments])])
+
+    @property
+    def length(self) -> float:
+        return float(self.offsets[-1])
+
+    def closest(self, points) -> "Nearest":
+        """For each point, the nearest segment, its parameter, foot, distance and arc length."""
+        p = as_points(points)
+        best = np.full(len(p), np.inf)
+        index = np.zeros(len(p), dtype=int)
+        param = np.zeros(len(p))
+        foot = np.zeros_like(p)
+        for i, segment in enumerate(self.segments):
+            t, f = segment.closest(p)
+            d = np.linalg.norm(p - f, axis=1)
+            better = d < best - 1e-12
+            best = np.where(better, d, best)
+            index = np.where(better, i, index)
+            param = np.where(better, t, param)
+            foot = np.where(better[:, None], f, foot)
+        lengths = np.array([segment.length for segment in self.segments])
+        s = self.offsets[index] + param * lengths[index]
+        return Nearest(index, param, foot, best, s)
+
+    def left_normals(self, index: np.ndarray, param: np.ndarray) -> np.ndarray:
+        """Unit normals to the left of the direction of travel at the given places."""
+        normals = np.zeros((len(index), 2))
+        for i, segment in enumerate(self.segments):
+            mask = index == i
+            if mask.any():
+                tangent = segment.tangent_at(param[mask])
+                normals[mask] = np.stack([-tangent[:, 1], tangent[:, 0]], axis=-1)
+        return normals
+
+
+@dataclass(frozen=True)
+class Nearest:
+    index: np.ndarray  #: segment of each point
+    param: np.ndarray  #: parameter on that segment
+    foot: np.ndarray  #: nearest point of the profile
+    distance: np.ndarray
+    s: np.ndarray  #: arc length of the foot along the profile
+
+
+def polar(points, centre) -> tuple[np.ndarray, np.ndarray]:
+    """Radius and theta (radians) of points about a centre."""
+    p = as_points(points)
+    dx, dz = p[:, 0] - centre[0], p[:, 1] - centre[1]
+    return np.hypot(dx, dz), np.arctan2(dz, dx)
+
+
+def segment_of(move) -> Segment:
+    """The geometry of a known line or arc move."""
+    if move.xc is None:
+        return Line(move.x0, move.z0, move.x1, move.z1)
+    full = (move.x0, move.z0) == (move.x1, move.z1)
+    return Arc.through((move.x0, move.z0), (move.x1, move.z1), (move.xc, move.zc), bool(move.cw), full=full)

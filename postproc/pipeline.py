@@ -1,0 +1,216 @@
+"""One compensation run: compensators chosen, fitted and applied to programs.
+
+The order is the user's: compensators run in the order of ``--plugin``; each computes its
+correction on the nominal path, the corrections add, and the segmenter runs once on the
+sum. A compensator that raises or returns something unusable is named in the error, and
+no program is written. The output starts with a provenance comment block (FANUC-safe:
+upper case, no nested parentheses, short lines); a program that already carries one is
+refused unless forced, so nobody compensates twice by accident.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import re
+import tempfile
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from . import __version__
+from . import plugins as registry
+from .compensator import Compensator, Context, Measurements, parse_options
+from .diagnostics import Location, OptionError, PluginError, PostprocError, Reporter, SafetyError, UsageError
+from .measurements.registry import ReadContext, read as read_measurement
+from .motion import ARC, LINE
+from .output import Spool
+from .profile import DEFAULT, MachineProfile
+from .program import interpret_source
+from .rewrite import Piece, Rewriter, Settings
+from .source import Source
+
+HEADER_MARK = "POSTPROC"
+_HEADER = re.compile(r"^\s*\(POSTPROC \S+ COMPENSATED", re.IGNORECASE)
+_SAFE = re.compile(r"[^A-Z0-9 .,:/_=+-]")
+
+
+@dataclass
+class Request:
+    """What the user asked for (the options of ``postproc compensate``)."""
+
+    plugins: list[str] = field(default_factory=list)
+    ballbar: list[str] = field(default_factory=list)
+    probe: list[str] = field(default_factory=list)
+    calibration: str | None = None
+    model: str | None = None
+    options: list[str] = field(default_factory=list)
+    tolerance: float | None = None
+    mode: str = "auto"
+    max_correction: float | None = None
+    force: bool = False
+
+
+def digest(path: str) -> str:
+    with open(path, "rb") as handle:
+        return hashlib.sha256(handle.read()).hexdigest()
+
+
+class Pipeline:
+    """Compensators ready to apply: built once, used for any number of programs."""
+
+    def __init__(self, request: Request, profile: MachineProfile = DEFAULT, reporter: Reporter | None = None):
+        self.request = request
+        self.profile = profile
+        self.reporter = reporter or Reporter()
+        if request.tolerance is not None and not request.tolerance > 0:
+            raise OptionError(f"--tolerance {request.tolerance}: the tolerance must be positive")
+        if request.max_correction is not None and not request.max_correction > 0:
+            raise OptionError(f"--max-correction {request.max_correction}: must be positive")
+        self.max_correction = request.max_correction or profile.max_correction
+        installed = registry.select(request.plugins)
+        self.installed = installed
+        settings = parse_options(request.options, [item.cls for item in installed])
+        context = Context(profile, self.reporter, request.tolerance or profile.default_tolerance(False), request.force)
+        self.compensators: list[Compensator] = [item.cls(context, settings[item.cls.name]) for item in installed]
+        self.inputs: list[tuple[str, str]] = []  # (file, sha256) for the provenance
+        self._fit()
+
+    # ------------------------------------------------------------------ measurements
+
+    def _fit(self) -> None:
+        request = self.request
+        given = {"ballbar": request.ballbar, "probe": request.probe,
+                 "calibration": [request.calibration] if request.calibration else []}
+        for kind, files in given.items():
+            if files and not any(kind in c.takes for c in self.compensators):
+                names = ", ".join(c.name for c in self.compensators)
+                raise UsageError(f"--{kind} was given but no selected compensator ({names}) takes {kind} measurements")
+        readers = registry.readers()
+        context = ReadContext(self.reporter)
+        read = {kind: [read_measurement(path, kind, readers, context) for path in files] for kind, files in given.items()}
+        for kind, files in given.items():
+            self.inputs += [(path, digest(path)) for path in files]
+        for compensator in self.compensators:
+            measurements = Measurements(**{kind: list(read[kind]) if kind in compensator.takes else [] for kind in read})
+            missing = [kind for kind in compensator.needs if not getattr(measurements, kind)]
+            if missing:
+                raise UsageError(f"{compensator.name} needs {' and '.join('--' + kind for kind in missing)} measurements")
+            self._guarded(compensator, "fit", compensator.fit, measurements)
+
+    @staticmethod
+    def _guarded(compensator: Compensator, what: str, function, *args):
+        try:
+            return function(*args)
+        except PostprocError:
+            raise
+        except Exception as exc:
+            raise PluginError(compensator.name, f"{what} failed: {exc.__class__.__name__}: {exc}") from None
+
+    # ------------------------------------------------------------------ programs
+
+    def run(self, source: Source, spool: Spool) -> Rewriter:
+        """Compensate one program into ``spool`` (the caller commits it)."""
+        self._refuse_twice(source)
+        if any(c.needs_survey for c in self.compensators):
+            moves = [m for step in interpret_source(source, self.profile, Reporter())
+                     for m in step.moves if m.kind in (LINE, ARC) and m.known]
+            for compensator in self.compensators:
+                if compensator.needs_survey:
+                    self._guarded(compensator, "survey", compensator.survey, moves)
+        settings = Settings(
+            tolerance=self.request.tolerance,
+            mode=self.request.mode,
+            max_arc_radius=self.profile.max_arc_radius,
+            arc_radius_tolerance=self.profile.arc_radius_tolerance,
+            decimals_mm=self.profile.output_decimals_mm,
+            decimals_inch=self.profile.output_decimals_inch,
+            diameter=self.profile.diameter_x,
+            system=self.profile.gcode_system,
+            min_block_time_s=self.profile.min_block_time_s,
+            default_tolerance=self.profile.default_tolerance,
+        )
+        steps = interpret_source(source, self.profile, self.reporter)
+        rewriter = Rewriter(steps, self._corrector(source), settings, self.reporter, source.name)
+        lead: list[str] = []  # the tape mark and program number go before the provenance block
+        with tempfile.SpooledTemporaryFile(max_size=8 << 20) as body:
+            for text in rewriter.run():
+                if body.tell() == 0 and _is_program_start(text) and len(lead) < 8:
+                    lead.append(text)
+                    continue
+                body.write(text.encode("utf-8", "surrogateescape"))
+            eol = _eol(lead[0]) if lead else "\n"
+            spool.write("".join(lead).encode("utf-8", "surrogateescape"))
+            spool.write(self._provenance(rewriter, eol).encode())
+            body.seek(0)
+            while chunk := body.read(1 << 20):
+                spool.write(chunk)
+        return rewriter
+
+    def _refuse_twice(self, source: Source) -> None:
+        for number, (text, _) in enumerate(source.lines(), 1):
+            if _HEADER.match(text):
+                if self.request.force:
+                    self.reporter.warn("this program was compensated before; compensating again (--force)",
+                                       Location(source.name, number, 1, text))
+                    return
+                raise SafetyError("this program was already compensated by postproc; give --force to compensate it again",
+                                  Location(source.name, number, 1, text))
+            if number > 50:
+                return
+
+    def _corrector(self, source: Source):
+        compensators = self.compensators
+        limit = self.max_correction
+
+        def correct(piece: Piece):
+            total = None
+            for compensator in compensators:
+                shift = self._guarded(compensator, "correct", compensator.correct, piece)
+                if shift is None:
+                    continue
+                shift = np.asarray(shift, dtype=float)
+                if shift.shape != (len(piece.t), 2) or not np.all(np.isfinite(shift)):
+                    raise PluginError(compensator.name,
+                                      f"returned a correction of shape {shift.shape} for {len(piece.t)} points "
+                                      "(or values that are not finite)")
+                total = shift if total is None else total + shift
+            if total is not None:
+                size = float(np.max(np.hypot(total[:, 0], total[:, 1])))
+                if size > limit:
+                    raise SafetyError(
+                        f"a correction of {size:.4f} mm exceeds the maximum correction {limit:g} mm "
+                        "(--max-correction)", Location(source.name, piece.move.line))
+            return total
+
+        return correct
+
+    def _provenance(self, rewriter: Rewriter, eol: str) -> str:
+        lines = [f"POSTPROC {__version__} COMPENSATED"]
+        for item, compensator in zip(self.installed, self.compensators):
+            lines.append(f"PLUGIN {compensator.name} {item.version}")
+        for path, sha in self.inputs:
+            lines.append(f"INPUT {path.rsplit('/', 1)[-1][:28]} SHA256 {sha[:12]}")
+        if self.request.model:
+            lines.append(f"MODEL {self.request.model.rsplit('/', 1)[-1][:28]}")
+        tolerance = self.request.tolerance
+        lines.append(f"TOLERANCE {'DEFAULT' if tolerance is None else f'{tolerance:g} MM'} MODE {self.request.mode}")
+        lines.append(f"LARGEST CORRECTION {rewriter.largest:.4f} MM")
+        lines.append(f"BLOCKS REPLACED {rewriter.replaced} BY {rewriter.emitted}")
+        return "".join(f"({_safe(line)}){eol}" for line in lines)
+
+    def report(self) -> list[dict[str, Any]]:
+        return [{"plugin": c.name, **c.report()} for c in self.compensators]
+
+
+def _safe(text: str) -> str:
+    return _SAFE.sub("_", text.upper())[:60]
+
+
+def _is_program_start(text: str) -> bool:
+    stripped = text.strip()
+    return stripped == "" or stripped.startswith("%") or stripped[:1] in ("O", "o", "<", ":")
+
+
+def _eol(text: str) -> str:
+    return "\r\n" if text.endswith("\r\n") else "\n"

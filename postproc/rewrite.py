@@ -1,0 +1,492 @@
+"""Applying corrections: targets through the segmenter into blocks, joined to the rest.
+
+The rewriter streams the interpreted steps with a window of one motion step and the
+non-motion steps after it. When the next motion step arrives, the join between the two is
+settled, then the window is written out:
+
+- a move whose start moved (its correction is not zero there) gets the previous move's
+  end point moved to meet it when that move is a plain line or rapid (as the source's
+  Table 6.2 does for the G01 to the pole), else a short connecting G01 first;
+- a move whose end moved leaves the next move to start from there: a line or rapid with
+  both end coordinates absolute still ends where it did; one that omits an axis or moves
+  incrementally gets its end written out absolutely; anything else (an arc, a cycle, a
+  thread) gets a connecting G01 back to the nominal end first;
+- a block whose motion mode the replacement no longer leaves in force (it relied on
+  modal G03, say) gets that code written in front of it.
+
+Unchanged blocks are copied byte for byte. Every replacement is checked by reading its
+text back through the interpreter and measuring the result against the target
+(the self-check); a replacement that fails is a SafetyError and nothing is written.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Callable, Iterable, Iterator
+
+import numpy as np
+
+from . import gcodes as G
+from .blocks import Block
+from .diagnostics import Location, Reporter, SafetyError
+from .emitter import Style, Writer, with_motion_code
+from .geometry import Arc, Line, segment_of
+from .interpreter import Interpreter
+from .motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Modal, Move, Step
+from .reader import read_blocks
+from .resolution import Grid
+from .segmenter import Cut, Limits, Plan, PlanError, Segmenter, Target, plan, sample_params
+
+JOIN = 1e-9  #: nominal points closer than this are the same point
+
+
+@dataclass(frozen=True)
+class Piece:
+    """The part of a move between axis reversals: what a compensator corrects."""
+
+    move: Move
+    segment: Line | Arc
+    t: np.ndarray  #: sample parameters on ``segment``
+    x_direction: int  #: sign of X travel over the piece (0: no X travel)
+    z_direction: int
+
+    @property
+    def points(self) -> np.ndarray:
+        return self.segment.point_at(self.t)
+
+
+def pieces(move: Move) -> list[Piece]:
+    """A move split where an axis reverses, so direction-dependent corrections act per side."""
+    segment = segment_of(move)
+    if isinstance(segment, Line):
+        bounds = [0.0, 1.0]
+    else:
+        bounds = [0.0, *segment.reversal_params(), 1.0]
+    result = []
+    for a, b in zip(bounds, bounds[1:]):
+        if isinstance(segment, Line):
+            part = segment
+        else:
+            part = Arc(segment.xc, segment.zc, segment.r, segment.theta0 + a * segment.sweep, (b - a) * segment.sweep)
+        tangent = part.tangent_at(0.5)
+        directions = [int(np.sign(round(float(c), 12))) for c in tangent]
+        result.append(Piece(move, part, sample_params(part), directions[0], directions[1]))
+    return result
+
+
+Corrector = Callable[[Piece], "np.ndarray | None"]
+
+
+@dataclass
+class Edit:
+    """What becomes of one move: the targets of its pieces and the cuts planned for them."""
+
+    move: Move
+    targets: list[Target]
+    plans: list[Plan] = field(default_factory=list)
+    lead_in: Cut | None = None  #: connecting move before the first target
+    lead_out: Cut | None = None  #: connecting move after the last target
+    spans: list[tuple[int, int]] = field(default_factory=list)  #: each plan's cuts in the block's cut list
+
+    @property
+    def start(self) -> tuple[float, float]:
+        return self.targets[0].start
+
+    @property
+    def end(self) -> tuple[float, float]:
+        return self.targets[-1].end
+
+
+@dataclass
+class Entry:
+    step: Step
+    edits: list[Edit | None] = field(default_factory=list)  #: one per move of the step
+    retarget: tuple[tuple[float, float] | None, tuple[float, float] | None] | None = None  #: new (start, end)
+
+    @property
+    def edited(self) -> bool:
+        return any(edit is not None for edit in self.edits)
+
+    @property
+    def motion(self) -> bool:
+        return any(move.role in (RUN, CONTOUR, CORNER) for move in self.step.moves)
+
+
+@dataclass
+class Settings:
+    tolerance: float | None = None  #: None: the profile's default for the program's units
+    mode: str = "auto"
+    max_arc_radius: float = 5000.0
+    arc_radius_tolerance: float = 0.01
+    decimals_mm: int = 3
+    decimals_inch: int = 4
+    diameter: bool = True
+    system: str = "A"
+    min_block_time_s: float = 0.001
+    default_tolerance: Callable[[bool], float] = lambda inch: 0.001
+
+
+class Rewriter:
+    """Streams steps to output text, replacing the moves the corrector changes."""
+
+    def __init__(self, steps: Iterable[Step], corrector: Corrector, settings: Settings, reporter: Reporter,
+                 file: str = "<program>", selects: Callable[[Step, Move], bool] | None = None):
+        self.steps = steps
+        self.corrector = corrector
+        self.settings = settings
+        self.reporter = reporter
+        self.file = file
+        self.selects = selects or (lambda step, move: True)
+        self.mode_now = None  # motion mode the control is in after what was written
+        self.original_mode = None  # motion mode the original program had at this point
+        self.largest = 0.0  #: largest correction applied, mm
+        self.replaced = 0  #: blocks replaced
+        self.emitted = 0  #: blocks written for them
+        self.worst = 0.0  #: largest measured deviation from a target, mm
+
+    # ------------------------------------------------------------------ streaming
+
+    def run(self) -> Iterator[str]:
+        window: list[Entry] = []
+        previous: Entry | None = None
+        first = True
+        for step in self.steps:
+            if first:
+                self.mode_now = self.original_mode = None
+                first = False
+            entry = Entry(step)
+            if entry.motion:
+                entry.edits = [self._edit(step, move) for move in step.moves]
+                if previous is not None:
+                    self._join(previous, entry)
+                yield from self._flush(window)
+                window = [entry]
+                previous = entry
+            else:
+                window.append(entry)
+        if previous is not None:
+            self._join(previous, None)
+        yield from self._flush(window)
+
+    # ------------------------------------------------------------------ corrections
+
+    def _candidate(self, step: Step, move: Move) -> bool:
+        return (
+            step.interpreted
+            and move.kind in (LINE, ARC)
+            and move.exact
+            and move.known
+            and move.role in (RUN, CONTOUR, CORNER)
+            and step.block.delete is None
+            and self.selects(step, move)
+        )
+
+    def _edit(self, step: Step, move: Move) -> Edit | None:
+        if not self._candidate(step, move):
+            return None
+        parts = pieces(move)
+        shifts = [self.corrector(piece) for piece in parts]
+        if all(shift is None for shift in shifts):
+            return None
+        targets = []
+        for piece, shift in zip(parts, shifts):
+            if shift is None:
+                shift = np.zeros((len(piece.t), 2))
+            self.largest = max(self.largest, float(np.max(np.hypot(shift[:, 0], shift[:, 1]))))
+            targets.append(Target(piece.segment, piece.t, shift))
+        if all(not np.any(target.d) for target in targets):
+            return None
+        return Edit(move, _merge_continuous(targets, self._tolerance(step) / 10.0))
+
+    # ------------------------------------------------------------------ joins
+
+    def _join(self, previous: Entry, entry: Entry | None) -> None:
+        """Settle how the last move of ``previous`` meets the first move of ``entry``."""
+        moves = [m for m in previous.step.moves if m.role in (RUN, CONTOUR, CORNER)]
+        last_move = moves[-1]
+        last_edit = previous.edits[previous.step.moves.index(last_move)]
+        if entry is None:
+            if last_edit is not None and last_edit.end != (last_move.x1, last_move.z1):
+                last_edit.lead_out = self._connector(last_edit.end, (last_move.x1, last_move.z1), previous.step)
+            return
+        firsts = [m for m in entry.step.moves if m.role in (RUN, CONTOUR, CORNER)]
+        first_move = firsts[0]
+        first_edit = entry.edits[entry.step.moves.index(first_move)]
+        connected = (
+            last_move.x1 is not None
+            and first_move.x0 is not None
+            and abs(last_move.x1 - first_move.x0) < JOIN
+            and abs(last_move.z1 - first_move.z0) < JOIN
+            and (last_move.role == CONTOUR) == (first_move.role == CONTOUR)
+        )
+        if self._has_corner(previous.step.block) and first_edit is not None and not previous.edited:
+            self._explicit(previous)
+            last_edit = previous.edits[previous.step.moves.index(last_move)]
+        if not connected:
+            if last_edit is not None and last_edit.end != (last_move.x1, last_move.z1):
+                last_edit.lead_out = self._connector(last_edit.end, (last_move.x1, last_move.z1), previous.step)
+            return
+        nominal = (last_move.x1, last_move.z1)
+        if last_edit is None and first_edit is None:
+            return
+        if last_edit is not None and first_edit is not None:
+            if self._snap(entry.step, last_edit.end) != self._snap(entry.step, first_edit.start):
+                first_edit.lead_in = self._connector(last_edit.end, first_edit.start, entry.step)
+            return
+        if first_edit is not None:  # only the following move changed: meet its new start
+            if self._simple(previous) and not self._starts_contour(previous):
+                self._retarget(previous, end=first_edit.start)
+            else:
+                first_edit.lead_in = self._connector(nominal, first_edit.start, entry.step)
+            return
+        # only the previous move changed: the following one starts where it ends now
+        if last_edit.end == nominal:
+            return
+        if not self._simple(entry):
+            last_edit.lead_out = self._connector(last_edit.end, nominal, previous.step)
+        elif self._end_would_move(entry, last_edit.end, nominal):
+            self._retarget(entry, start=last_edit.end)
+
+    def _simple(self, entry: Entry) -> bool:
+        """A block with one plain line or rapid that can be rewritten with other end points."""
+        step = entry.step
+        return (
+            len(step.moves) == 1
+            and step.moves[0].kind in (LINE, RAPID)
+            and step.moves[0].exact
+            and step.moves[0].known
+            and step.moves[0].role in (RUN, CONTOUR)
+            and step.interpreted
+            and step.block.delete is None
+            and not self._has_corner(step.block)
+            and step.block.statement is None
+            and not any(letter == "G" and _group(value, self.settings.system) in (G.ONE_SHOT, None)
+                        for letter, value in step.block.codes)
+        )
+
+    def _end_would_move(self, entry: Entry, start, nominal) -> bool:
+        """Whether the block, started from ``start`` instead of ``nominal``, would end elsewhere.
+
+        It does when an axis that moved is omitted from the block or given incrementally
+        (U/W, or X/Z under G91 in systems B and C).
+        """
+        letters = {letter for letter, _ in entry.step.block.codes}
+        absolute = entry.step.modal.absolute
+        grid = self._grid(entry.step)
+        moved_x = grid.x_word(start[0]) != grid.x_word(nominal[0])
+        moved_z = grid.z_word(start[1]) != grid.z_word(nominal[1])
+        fixed_x = "X" in letters and absolute
+        fixed_z = "Z" in letters and absolute
+        return (moved_x and not fixed_x) or (moved_z and not fixed_z)
+
+    @staticmethod
+    def _retarget(entry: Entry, start=None, end=None) -> None:
+        old_start, old_end = entry.retarget or (None, None)
+        entry.retarget = (start or old_start, end or old_end)
+
+    @staticmethod
+    def _starts_contour(entry: Entry) -> bool:
+        """The first block of a P..Q contour: its form (X only for a type I G71) must stay."""
+        return entry.step.in_contour and entry.step.moves[0].role == CONTOUR and entry.step.block.label is not None
+
+    @staticmethod
+    def _has_corner(block: Block) -> bool:
+        return any(letter in (",C", ",R") for letter, _ in block.codes)
+
+    def _explicit(self, entry: Entry) -> None:
+        """Write a corner block's geometry out, so the control no longer computes the corner."""
+        edits = []
+        for move in entry.step.moves:
+            if move.kind in (LINE, ARC) and move.known:
+                segment = segment_of(move)
+                t = sample_params(segment)
+                edits.append(Edit(move, [Target(segment, t, np.zeros((len(t), 2)))]))
+            else:
+                edits.append(None)
+        entry.edits = edits
+
+    def _connector(self, start, end, step: Step) -> Cut | None:
+        a, b = self._snap(step, start), self._snap(step, end)
+        if a == b:
+            return None
+        return Cut(a[0], a[1], b[0], b[1])
+
+    # ------------------------------------------------------------------ units and limits
+
+    def _grid(self, step: Step) -> Grid:
+        inch = step.modal.inch
+        settings = self.settings
+        return Grid(settings.decimals_inch if inch else settings.decimals_mm, inch, settings.diameter)
+
+    def _tolerance(self, step: Step) -> float:
+        if self.settings.tolerance is not None:
+            return self.settings.tolerance
+        return self.settings.default_tolerance(step.modal.inch)
+
+    def _snap(self, step: Step, point) -> tuple[float, float]:
+        return self._grid(step).snap(*point)
+
+    # ------------------------------------------------------------------ writing
+
+    def _flush(self, window: list[Entry]) -> Iterator[str]:
+        for entry in window:
+            yield from self._write(entry)
+
+    def _write(self, entry: Entry) -> Iterator[str]:
+        step = entry.step
+        block = step.block
+        before = self.original_mode
+        self.original_mode = step.modal.motion
+        if not entry.edited and entry.retarget is None:
+            codes = [value for letter, value in block.codes if letter == "G"]
+            sets_mode = any(_group(value, self.settings.system) == G.MOTION for value in codes)
+            relies = (
+                any(letter in "XZUWIK" for letter, _ in block.codes)
+                and not sets_mode
+                and not any(_group(value, self.settings.system) == G.ONE_SHOT for value in codes)
+            )
+            if relies and self.mode_now is not None and before is not None and self.mode_now != before:
+                writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
+                yield with_motion_code(block, writer.code(before, Style.of(block)))
+                self.mode_now = before
+            elif sets_mode or self.mode_now is None:
+                self.mode_now = step.modal.motion
+            yield block.raw
+            return
+        cuts = self._cuts(entry)
+        writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
+        lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
+        self._self_check(entry, lines, cuts)
+        self.mode_now = mode
+        self.replaced += 1
+        self.emitted += len(lines)
+        yield from lines
+
+    def _cuts(self, entry: Entry) -> list[Cut]:
+        """The cuts that replace a step, each plan's share recorded for the self-check."""
+        step = entry.step
+        if entry.retarget is not None:
+            move = step.moves[0]
+            a = self._snap(step, entry.retarget[0] or (move.x0, move.z0))
+            b = self._snap(step, entry.retarget[1] or (move.x1, move.z1))
+            return [Cut(a[0], a[1], b[0], b[1], rapid=move.kind == RAPID)]
+        cuts: list[Cut] = []
+
+        def add(cut: Cut | None) -> None:
+            if cut is None:
+                return
+            if cuts and cuts[-1].end != cut.start:  # pieces that do not meet: a connecting move
+                cuts.append(Cut(*cuts[-1].end, *cut.start))
+            if cut.start != cut.end:
+                cuts.append(cut)
+
+        for index, (move, edit) in enumerate(zip(step.moves, entry.edits)):
+            if edit is None:
+                if move.kind == RAPID:
+                    a, b = self._snap(step, (move.x0, move.z0)), self._snap(step, (move.x1, move.z1))
+                    add(Cut(a[0], a[1], b[0], b[1], rapid=True))
+                    continue
+                segment = segment_of(move)  # written out as it is, for it shares the block with a change
+                t = sample_params(segment)
+                edit = entry.edits[index] = Edit(move, [Target(segment, t, np.zeros((len(t), 2)))])
+            add(edit.lead_in)
+            for target in edit.targets:
+                planned = self._plan(step, target)
+                add(planned.cuts[0])
+                first = len(cuts) - 1
+                for cut in planned.cuts[1:]:
+                    add(cut)
+                edit.plans.append(planned)
+                edit.spans.append((first, len(cuts)))
+            add(edit.lead_out)
+        return cuts
+
+    def _plan(self, step: Step, target: Target) -> Plan:
+        settings = self.settings
+        limits = Limits(self._tolerance(step), self._grid(step), settings.arc_radius_tolerance, settings.max_arc_radius)
+        try:
+            result = plan(target, limits, settings.mode)
+        except PlanError as exc:
+            raise SafetyError(f"block cannot be compensated within tolerance: {exc}",
+                              Location(self.file, step.block.line, None, step.block.text)) from None
+        self.worst = max(self.worst, result.deviation)
+        return result
+
+    # ------------------------------------------------------------------ self-check
+
+    def _self_check(self, entry: Entry, lines: list[str], cuts: list[Cut]) -> None:
+        """Read the replacement back as the control will and measure it against the targets."""
+        step = entry.step
+        first = cuts[0]
+        interpreter = Interpreter(replace(_profile_for(self.settings), name="self-check"), Reporter(), self.file)
+        interpreter.x, interpreter.z = first.x0, first.z0
+        interpreter.modal = replace(step.modal, motion=self.mode_now)
+        text = [(line.rstrip("\r\n"), "\n") for line in lines]
+        where = Location(self.file, step.block.line, None, step.block.text)
+        try:
+            moves = [m for s in interpreter.run(read_blocks(text, "<replacement>")) for m in s.moves]
+        except Exception as exc:  # the replacement must parse and interpret
+            raise SafetyError(f"self-check: the replacement does not read back ({exc})", where) from None
+        if len(moves) != len(cuts):
+            raise SafetyError(f"self-check: {len(cuts)} moves planned, {len(moves)} read back", where)
+        read_back = [_cut_of(move) for move in moves]
+        for planned, got in zip(cuts, read_back):
+            if max(abs(a - b) for a, b in zip(_numbers(planned), _numbers(got))) > 1e-9:
+                raise SafetyError(f"self-check: a block reads back as {got}, planned {planned}", where)
+        tolerance = self._tolerance(step)
+        for edit in entry.edits:
+            if edit is None:
+                continue
+            for target, (first, stop) in zip(edit.targets, edit.spans):
+                deviation = Segmenter(target, Limits(tolerance, self._grid(step))).measure(read_back[first:stop])
+                if deviation > tolerance * (1 + 1e-9):
+                    raise SafetyError(
+                        f"self-check: the replacement runs {deviation * 1000:.2f} um from the intended path "
+                        f"(tolerance {tolerance * 1000:.2f} um)", where)
+
+
+def _cut_of(move: Move) -> Cut:
+    if move.kind == ARC:
+        return Cut(move.x0, move.z0, move.x1, move.z1, move.xc, move.zc, move.cw)
+    return Cut(move.x0, move.z0, move.x1, move.z1, rapid=move.kind == RAPID)
+
+
+def _numbers(cut: Cut) -> tuple[float, ...]:
+    return (cut.x0, cut.z0, cut.x1, cut.z1, cut.xc or 0.0, cut.zc or 0.0, float(bool(cut.cw)), float(cut.rapid))
+
+
+def _profile_for(settings: Settings):
+    from .profile import DEFAULT
+
+    return replace(DEFAULT, gcode_system=settings.system, diameter_x=settings.diameter,
+                   arc_radius_tolerance=settings.arc_radius_tolerance)
+
+
+def _group(value, system: str) -> str | None:
+    """The kind of a G word's code (gcodes.MOTION, ONE_SHOT...), or None when it is not known."""
+    if type(value) is not str:
+        return None
+    entry = G.SYSTEMS[system].get(G.code_key(float(value)))
+    return None if entry is None else entry[0]
+
+
+def _merge_continuous(targets: list[Target], gap: float) -> list[Target]:
+    """Pieces of one arc whose corrections meet are planned as one target."""
+    merged = [targets[0]]
+    for target in targets[1:]:
+        last = merged[-1]
+        if (
+            isinstance(last.nominal, Arc)
+            and isinstance(target.nominal, Arc)
+            and math.dist(last.end, target.start) <= gap
+        ):
+            a, b = last.nominal, target.nominal
+            whole = Arc(a.xc, a.zc, a.r, a.theta0, a.sweep + b.sweep)
+            share = a.sweep / whole.sweep
+            t = np.concatenate([last.t * share, share + target.t[1:] * (1 - share)])
+            d = np.concatenate([last.d, target.d[1:]])
+            merged[-1] = Target(whole, t, d)
+        else:
+            merged.append(target)
+    return merged

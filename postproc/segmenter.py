@@ -1,0 +1,523 @@
+"""The tolerance-driven segmenter: the fewest blocks that follow a target path.
+
+A target is a nominal move (line or arc) plus a displacement sampled along it: what a
+compensator asks for. The segmenter plans blocks on the control's grid (resolution.py)
+and chooses between
+
+- one line, when the target is straight within the tolerance;
+- one arc through the (rounded) end points, its centre fitted to the target;
+- several arcs, found greedily (each reaches as far as it can while every target sample
+  and every point of the arc stays within the tolerance, the way good arc welders fit
+  arcs to polylines);
+- lines by polar interpolation whose vertices straddle the target: placed outside it by
+  nearly the tolerance, so that each chord dips inside by as much as its vertices stand
+  out. On a circle of radius R with tolerance t a chord then spans
+  ``2 acos((R - t)/(R + t))``, about sqrt(2) longer than chords with vertices on the circle.
+
+Every candidate is measured, not assumed: the planned blocks are rebuilt as the control
+will run them (end points rounded to the grid, arcs about the centre their rounded I and K
+give, the radius drifting from the start radius to the end radius as a control does when
+they differ), sampled, and compared with the target across it (radially about an arc's
+centre, normally to a line; both are upper bounds of the true distance).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from .fitting import FitError, hyper_fit
+from .geometry import TAU, Arc, Line, Segment
+from .resolution import Grid
+
+AUTO, ARC_MODE, LINE_MODE = "auto", "arc", "line"
+
+
+@dataclass(frozen=True)
+class Target:
+    """A nominal move and the displacement wanted along it (sampled at ``t`` in [0, 1])."""
+
+    nominal: Segment
+    t: np.ndarray
+    d: np.ndarray  #: (n, 2) displacement in radius mm
+
+    def at(self, t) -> np.ndarray:
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        shift = np.column_stack([np.interp(t, self.t, self.d[:, 0]), np.interp(t, self.t, self.d[:, 1])])
+        return self.nominal.point_at(t) + shift
+
+    @cached_property
+    def points(self) -> np.ndarray:
+        return self.nominal.point_at(self.t) + self.d
+
+    @property
+    def start(self) -> tuple[float, float]:
+        return tuple(self.points[0])
+
+    @property
+    def end(self) -> tuple[float, float]:
+        return tuple(self.points[-1])
+
+
+def sample_params(nominal: Segment, spacing: float = 0.05, lowest: int = 16, highest: int = 1024) -> np.ndarray:
+    """Where to ask a compensator for its correction along a nominal move."""
+    count = math.ceil(nominal.length / spacing)
+    if isinstance(nominal, Arc):
+        count = max(count, math.ceil(abs(math.degrees(nominal.sweep)) / 0.5))
+    return np.linspace(0.0, 1.0, min(max(count, lowest), highest) + 1)
+
+
+@dataclass(frozen=True, slots=True)
+class Cut:
+    """One block as the control will run it: end points on the grid, arcs about the
+    centre that the rounded start point and rounded I, K define."""
+
+    x0: float
+    z0: float
+    x1: float
+    z1: float
+    xc: float | None = None
+    zc: float | None = None
+    cw: bool | None = None
+    rapid: bool = False  #: a positioning move (G00) kept as one
+
+    @property
+    def is_arc(self) -> bool:
+        return self.xc is not None
+
+    @property
+    def start(self) -> tuple[float, float]:
+        return (self.x0, self.z0)
+
+    @property
+    def end(self) -> tuple[float, float]:
+        return (self.x1, self.z1)
+
+    @property
+    def length(self) -> float:
+        if not self.is_arc:
+            return math.hypot(self.x1 - self.x0, self.z1 - self.z0)
+        r0, r1, sweep = self._spiral()
+        return abs(sweep) * (r0 + r1) / 2.0
+
+    def _spiral(self) -> tuple[float, float, float]:
+        r0 = math.hypot(self.x0 - self.xc, self.z0 - self.zc)
+        r1 = math.hypot(self.x1 - self.xc, self.z1 - self.zc)
+        a0 = math.atan2(self.z0 - self.zc, self.x0 - self.xc)
+        a1 = math.atan2(self.z1 - self.zc, self.x1 - self.xc)
+        sweep = (a1 - a0) % TAU if self.cw else -((a0 - a1) % TAU)
+        if sweep == 0.0:
+            sweep = TAU if self.cw else -TAU
+        return r0, r1, sweep
+
+    def sample(self, spacing: float) -> np.ndarray:
+        """Points of the path as the control runs it, at most ``spacing`` apart."""
+        if not self.is_arc:
+            n = max(2, math.ceil(self.length / spacing) + 1)
+            s = np.linspace(0.0, 1.0, n)[:, None]
+            return np.array(self.start) + s * (np.array(self.end) - np.array(self.start))
+        r0, r1, sweep = self._spiral()
+        n = max(8, math.ceil(abs(sweep) * max(r0, r1) / spacing) + 1)
+        s = np.linspace(0.0, 1.0, n)
+        a0 = math.atan2(self.z0 - self.zc, self.x0 - self.xc)
+        theta = a0 + s * sweep
+        radius = r0 + s * (r1 - r0)
+        return np.column_stack([self.xc + radius * np.cos(theta), self.zc + radius * np.sin(theta)])
+
+    @property
+    def radius_mismatch(self) -> float:
+        if not self.is_arc:
+            return 0.0
+        r0, r1, _ = self._spiral()
+        return abs(r1 - r0)
+
+    @property
+    def radius(self) -> float:
+        return self._spiral()[0] if self.is_arc else math.inf
+
+
+class Frame:
+    """Coordinates along (u) and across (v) a nominal move, both in mm.
+
+    About an arc: u is the arc length of the angle from the start, v the radial distance
+    outside the nominal radius. Along a line: u along it, v to its left. A target that
+    stays near its nominal is a graph v(u) in this frame, and for two such graphs the
+    difference of v at equal u is never less than their true distance.
+    """
+
+    def __init__(self, nominal: Segment):
+        self.nominal = nominal
+        if isinstance(nominal, Arc):
+            self.centre = np.array(nominal.centre)
+            self.sign = 1.0 if nominal.sweep >= 0 else -1.0
+            self.mid = nominal.theta0 + nominal.sweep / 2.0
+            self.half = abs(nominal.sweep) / 2.0
+            self.r = nominal.r
+        else:
+            self.origin = np.array(nominal.start)
+            direction = np.array(nominal.direction)
+            self.direction = direction
+            self.normal = np.array([-direction[1], direction[0]])
+
+    def uv(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if isinstance(self.nominal, Arc):
+            rel = points - self.centre
+            theta = np.arctan2(rel[:, 1], rel[:, 0])
+            along = (self.sign * (theta - self.mid) + math.pi) % TAU - math.pi + self.half
+            return along * self.r, np.hypot(rel[:, 0], rel[:, 1]) - self.r
+        rel = points - self.origin
+        return rel @ self.direction, rel @ self.normal
+
+
+def _deviation(frame: Frame, target_u: np.ndarray, target_v: np.ndarray, path: np.ndarray) -> float:
+    """Largest distance across the frame between a target and a path, both graphs in u."""
+    pu, pv = frame.uv(path)
+    if np.any(np.diff(pu) < -1e-9) or np.any(np.diff(target_u) < -1e-9):
+        return math.inf  # not a graph over the nominal: this path does not follow the target
+    low = max(target_u[0], pu[0])
+    high = min(target_u[-1], pu[-1])
+    grid = np.concatenate([target_u, pu])
+    grid = grid[(grid >= low) & (grid <= high)]
+    if len(grid) == 0:
+        return math.inf
+    gap = np.abs(np.interp(grid, target_u, target_v) - np.interp(grid, pu, pv))
+    return float(gap.max())
+
+
+@dataclass
+class Limits:
+    """What the control accepts and what the plan must keep to."""
+
+    tolerance: float
+    grid: Grid
+    arc_radius_tolerance: float = 0.01
+    max_arc_radius: float = 5000.0
+    spacing: float = 0.02  #: sampling of planned paths when measuring them
+
+
+@dataclass
+class Plan:
+    cuts: list[Cut]
+    deviation: float  #: measured largest distance from the target
+    method: str
+    notes: list[str] = field(default_factory=list)
+
+
+class Segmenter:
+    """Plans one target; create one per target."""
+
+    def __init__(self, target: Target, limits: Limits):
+        self.target = target
+        self.limits = limits
+        self.grid = limits.grid
+        self.frame = Frame(target.nominal)
+        self.u, self.v = self.frame.uv(target.points)
+        self.tol = limits.tolerance
+        last = len(target.t) - 1
+        self.last = last
+        self.vertices: dict[int, tuple[float, float]] = {}
+        self.vertices[0] = self._snap_index(0)
+        self.vertices[last] = self._snap_index(last)
+
+    # ---------------------------------------------------------------- measuring
+
+    def _measure(self, cut: Cut, i: int, j: int) -> float:
+        """Deviation of one cut from the target samples i..j (and its end points)."""
+        path = cut.sample(self.limits.spacing)
+        deviation = _deviation(self.frame, self.u[i : j + 1], self.v[i : j + 1], path)
+        ends = max(
+            math.dist(cut.start, self.target.points[i]),
+            math.dist(cut.end, self.target.points[j]),
+        )
+        return max(deviation, ends)
+
+    def measure(self, cuts: list[Cut]) -> float:
+        """Deviation of a whole plan from the whole target."""
+        path = np.concatenate([cut.sample(self.limits.spacing) for cut in cuts])
+        deviation = _deviation(self.frame, self.u, self.v, path)
+        ends = max(math.dist(cuts[0].start, self.target.start), math.dist(cuts[-1].end, self.target.end))
+        return max(deviation, ends)
+
+    # ---------------------------------------------------------------- grid points
+
+    def _snap_index(self, index: int) -> tuple[float, float]:
+        """Sample ``index`` moved onto the grid; the end points of the target stay end points."""
+        point = self.target.points[index]
+        return self.grid.snap(*point)
+
+    def _vertex(self, index: int, offset: float = 0.0) -> tuple[float, float]:
+        """A grid point near sample ``index``, ``offset`` outside the target (across the frame).
+
+        Several nearby grid points are tried and the one nearest to the wanted offset wins:
+        on a fine grid the target passes close to some grid point, and choosing it spends
+        almost none of the tolerance on rounding.
+        """
+        if offset == 0.0 and index in self.vertices:
+            return self.vertices[index]
+        point = self.target.points[index]
+        outward = self._outward(index)
+        wanted = point + offset * outward
+        steps = (self.grid.x_step, self.grid.z_step)
+        best, best_error = None, math.inf
+        base = self.grid.snap(*wanted)
+        for dx in (-1, 0, 1):
+            for dz in (-1, 0, 1):
+                candidate = (base[0] + dx * steps[0], base[1] + dz * steps[1])
+                candidate = self.grid.snap(*candidate)
+                cu, cv = self.frame.uv(np.array([candidate]))
+                target_v = np.interp(cu[0], self.u, self.v)
+                error = abs((cv[0] - target_v) - offset * self._v_sign(outward)) + 0.1 * math.dist(candidate, wanted)
+                if error < best_error:
+                    best, best_error = candidate, error
+        if offset == 0.0:
+            self.vertices[index] = best
+        return best
+
+    def _v_sign(self, outward: np.ndarray) -> float:
+        if isinstance(self.frame.nominal, Arc):
+            return 1.0  # outward is radial here
+        return float(np.sign(outward @ self.frame.normal)) or 1.0
+
+    def _outward(self, index: int) -> np.ndarray:
+        """Unit vector across the target, away from its centre of curvature."""
+        if isinstance(self.frame.nominal, Arc):
+            point = self.target.points[index]
+            radial = point - self.frame.centre
+            return radial / np.linalg.norm(radial)
+        normal = self.frame.normal
+        curvature = self._line_curvature(index)
+        return -normal if curvature > 0 else normal
+
+    def _line_curvature(self, index: int) -> float:
+        lo, hi = max(index - 8, 0), min(index + 8, self.last)
+        if hi - lo < 2:
+            return 0.0
+        coeffs = np.polyfit(self.u[lo : hi + 1], self.v[lo : hi + 1], 2)
+        return float(coeffs[0])
+
+    # ---------------------------------------------------------------- candidate cuts
+
+    def line(self, i: int, j: int, a=None, b=None) -> Cut:
+        a = a if a is not None else self._vertex(i)
+        b = b if b is not None else self._vertex(j)
+        return Cut(a[0], a[1], b[0], b[1])
+
+    def arc(self, i: int, j: int) -> Cut | None:
+        """The best arc through the grid points at samples i and j, or None."""
+        a, b = self._vertex(i), self._vertex(j)
+        if a == b:
+            return None
+        points = self.target.points[i : j + 1]
+        mid = (np.array(a) + np.array(b)) / 2.0
+        chord = np.array(b) - np.array(a)
+        half = np.linalg.norm(chord) / 2.0
+        normal = np.array([-chord[1], chord[0]]) / (2.0 * half)
+        start = self._centre_guess(points, i, j)
+        if start is None:
+            return None
+        lam = float((np.array(start) - mid) @ normal)
+        lam = self._refine(points, mid, normal, a, lam)
+        if lam is None:
+            return None
+        centre = mid + lam * normal
+        radius = math.hypot(half, lam)
+        if radius > self.limits.max_arc_radius:
+            return None
+        cw = self._direction(a, b, centre, points[len(points) // 2])
+        best, best_dev = None, math.inf
+        for cand in self._rounded_centres(a, centre):
+            cut = Cut(a[0], a[1], b[0], b[1], cand[0], cand[1], cw)
+            if cut.radius_mismatch > self.limits.arc_radius_tolerance:
+                continue
+            if abs(cand[0] - a[0]) < 1e-12 and abs(cand[1] - a[1]) < 1e-12:
+                continue
+            deviation = self._measure(cut, i, j)
+            if deviation < best_dev:
+                best, best_dev = cut, deviation
+        return best
+
+    def _centre_guess(self, points: np.ndarray, i: int, j: int):
+        if isinstance(self.frame.nominal, Arc) and j - i >= 0.5 * self.last:
+            return tuple(self.frame.centre)
+        if len(points) >= 3:
+            try:
+                xc, zc, _ = hyper_fit(points)
+                return (xc, zc)
+            except (FitError, np.linalg.LinAlgError, ValueError):
+                return None
+        return None
+
+    @staticmethod
+    def _refine(points, mid, normal, a, lam, iterations: int = 12):
+        """Gauss-Newton on the centre's place along the chord's bisector (least squares)."""
+        for _ in range(iterations):
+            centre = mid + lam * normal
+            rel = points - centre
+            dist = np.hypot(rel[:, 0], rel[:, 1])
+            radius = math.dist(a, centre)
+            if radius == 0 or np.any(dist == 0):
+                return None
+            residual = dist - radius
+            # d(dist)/d(lam) = -(rel . normal)/dist ; d(radius)/d(lam) = -((a - centre) . normal)/radius
+            jac = -(rel @ normal) / dist + ((np.array(a) - centre) @ normal) / radius
+            denominator = float(jac @ jac)
+            if denominator == 0:
+                return lam
+            step = -float(jac @ residual) / denominator
+            lam += step
+            if abs(step) < 1e-12 * max(1.0, abs(lam)):
+                break
+        return lam if math.isfinite(lam) else None
+
+    @staticmethod
+    def _direction(a, b, centre, middle) -> bool:
+        """G02 (cw) when the target's middle lies on the theta-increasing way from a to b."""
+        t0 = math.atan2(a[1] - centre[1], a[0] - centre[0])
+        t1 = math.atan2(b[1] - centre[1], b[0] - centre[0])
+        tm = math.atan2(middle[1] - centre[1], middle[0] - centre[0])
+        return ((tm - t0) % TAU) < ((t1 - t0) % TAU)
+
+    def _rounded_centres(self, a, centre):
+        grid = self.grid
+        ix = (centre[0] - a[0]) / grid.unit
+        kz = (centre[1] - a[1]) / grid.unit
+        step = grid.step
+        options = set()
+        for fx in (math.floor, math.ceil):
+            for fz in (math.floor, math.ceil):
+                i_word = round(fx(ix / step) * step, grid.decimals)
+                k_word = round(fz(kz / step) * step, grid.decimals)
+                options.add((a[0] + grid.offset_of(i_word), a[1] + grid.offset_of(k_word)))
+        return options
+
+    # ---------------------------------------------------------------- plans
+
+    def single_line(self) -> Plan | None:
+        cut = self.line(0, self.last)
+        if cut.start == cut.end:
+            return None
+        deviation = self._measure(cut, 0, self.last)
+        return Plan([cut], deviation, "line") if deviation <= self.tol else None
+
+    def single_arc(self) -> Plan | None:
+        cut = self.arc(0, self.last)
+        if cut is None:
+            return None
+        deviation = self._measure(cut, 0, self.last)
+        return Plan([cut], deviation, "arc") if deviation <= self.tol else None
+
+    def arcs(self) -> Plan | None:
+        """Greedy: from each break, the farthest sample an arc (or a line) reaches in tolerance."""
+        cuts, i = [], 0
+        while i < self.last:
+            j, cut = self._reach(i, lambda a, b: self._fitting_arc_or_line(a, b))
+            if cut is None:
+                return None
+            cuts.append(cut)
+            i = j
+        return self._finish(cuts, "arcs")
+
+    def _fitting_arc_or_line(self, i: int, j: int) -> Cut | None:
+        line = self.line(i, j)
+        if line.start != line.end and self._measure(line, i, j) <= self.tol:
+            return line
+        cut = self.arc(i, j)
+        if cut is not None and self._measure(cut, i, j) <= self.tol:
+            return cut
+        return None
+
+    def lines(self) -> Plan | None:
+        """Chords whose vertices straddle the target (polar interpolation about an arc)."""
+        offset = max(self.tol - 0.55 * self.grid.rounding_error, 0.0) * 0.95
+        cuts, i = [], 0
+        start = self._vertex(0)
+        while i < self.last:
+            def chord(a_index: int, b_index: int, start=start):
+                end = self._vertex(b_index, 0.0 if b_index == self.last else offset)
+                if end == start:
+                    return None
+                cut = Cut(start[0], start[1], end[0], end[1])
+                return cut if self._measure_chord(cut, a_index, b_index) <= self.tol else None
+
+            j, cut = self._reach(i, chord)
+            if cut is None:
+                return None
+            cuts.append(cut)
+            start = cut.end
+            i = j
+        return self._finish(cuts, "lines")
+
+    def _measure_chord(self, cut: Cut, i: int, j: int) -> float:
+        """A chord's vertices stand off the target on purpose: measure only across it."""
+        path = cut.sample(self.limits.spacing)
+        deviation = _deviation(self.frame, self.u[i : j + 1], self.v[i : j + 1], path)
+        if i == 0:
+            deviation = max(deviation, math.dist(cut.start, self.target.start))
+        if j == self.last:
+            deviation = max(deviation, math.dist(cut.end, self.target.end))
+        return deviation
+
+    def _reach(self, i: int, make):
+        """The farthest j > i for which ``make(i, j)`` gives a cut (binary search)."""
+        cut = make(i, self.last)
+        if cut is not None:
+            return self.last, cut
+        lo, hi = i + 1, self.last
+        best = None
+        while lo < hi:
+            mid = (lo + hi) // 2
+            candidate = make(i, mid)
+            if candidate is not None:
+                best = (mid, candidate)
+                lo = mid + 1
+            else:
+                hi = mid
+        if best is None:
+            candidate = make(i, i + 1)
+            return (i + 1, candidate) if candidate is not None else (i + 1, None)
+        return best
+
+    def _finish(self, cuts: list[Cut], method: str) -> Plan | None:
+        cuts = [cut for cut in cuts if cut.start != cut.end]
+        if not cuts:
+            return None
+        return Plan(cuts, self.measure(cuts), method)
+
+
+def plan(target: Target, limits: Limits, mode: str = AUTO) -> Plan:
+    """The fewest blocks within tolerance, as ``mode`` allows; raises PlanError if none."""
+    segmenter = Segmenter(target, limits)
+    straight = segmenter.single_line()
+    if straight is not None:
+        return straight
+    candidates: list[Plan] = []
+    if mode in (AUTO, ARC_MODE):
+        single = segmenter.single_arc()
+        if single is not None:
+            return single
+        several = segmenter.arcs()
+        if several is not None:
+            candidates.append(several)
+    if mode in (AUTO, LINE_MODE) or not candidates:
+        chords = segmenter.lines()
+        if chords is not None and (mode != ARC_MODE or not candidates):
+            candidates.append(chords)
+    if not candidates:
+        raise PlanError(f"no plan keeps within {limits.tolerance * 1000:.2f} um of the target")
+    return min(candidates, key=lambda p: (len(p.cuts), p.method != "arcs"))
+
+
+class PlanError(ValueError):
+    """No sequence of blocks on the control's grid follows the target within tolerance."""
+
+
+def chord_minimum(radius: float, sweep: float, tolerance: float) -> int:
+    """The fewest straddling chords over ``sweep`` radians of a circle (methods.md 4)."""
+    step = 2.0 * math.acos((radius - tolerance) / (radius + tolerance))
+    return math.ceil(abs(sweep) / step)
+
+
+__all__ = ["Target", "Cut", "Plan", "Limits", "plan", "PlanError", "sample_params", "chord_minimum", "Line", "Arc"]
