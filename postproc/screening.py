@@ -1,0 +1,184 @@
+"""Robust screening of probe deviations: outliers, and the nub at the pole (methods.md 9, 7.5.1).
+
+When the tool sits slightly off the Y = 0 plane it leaves a nub on the spindle axis, and the
+pole reads up to +0.02 mm high. Such a reading says nothing about the rest of the path and
+must not drive the compensation; neither must a stray touch (a chip, a coolant drop).
+
+The rule, along the profile (points ordered by arc length ``s``):
+
+1. a robust local trend: LOWESS (local straight lines, tricube weights over the ``frac``
+   nearest points, three bisquare robustness passes), so a single bad point neither bends the
+   trend nor hides behind it;
+2. residuals from the trend, their robust scale ``sigma = 1.4826 MAD``, and a point is dropped
+   when its residual exceeds ``max(cutoff * sigma, floor)`` (``floor``: differences below the
+   probe's repeatability are never called outliers);
+3. a dropped point with a positive residual within ``nub_zone`` of the spindle axis is the
+   nub; any other is an outlier.
+
+A dropped point is replaced, never silently removed:
+
+- ``fill="extrapolate"`` (default): by a straight line fitted to the nearest ``FILL_POINTS``
+  good points along the profile, evaluated at the dropped point: an interpolation when good
+  points lie on both sides, an extrapolation at an end of the probed stretch (the pole). If the
+  dropped point lies farther beyond those points than their own span, by the nearest good
+  point's value instead;
+- ``fill="nearest"``: by the nearest good point's value, always (the source's other suggestion).
+
+More than ``max_fraction`` of the points dropped means the data do not follow a smooth
+profile at all (a wrong calibration or program): that is an error, not a cleaning job.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .diagnostics import Location, MeasurementError, Reporter
+
+MAD_SIGMA = 1.4826  #: MAD to standard deviation for normal data
+MIN_POINTS = 6  #: fewer points than this are not screened
+FILL_POINTS = 4  #: good points a replacement is fitted to
+FILLS = ("extrapolate", "nearest")
+
+
+@dataclass(frozen=True, slots=True)
+class Dropped:
+    """A point that must not drive the compensation, and what replaces it."""
+
+    index: int  #: position in the input arrays
+    row: int | None  #: the data row (1-based line) of the probe file
+    kind: str  #: "nub" or "outlier"
+    deviation: float  #: mm, as measured
+    trend: float  #: mm, the robust trend of its neighbours there
+    replacement: float  #: mm
+    how: str  #: "interpolated", "extrapolated" or "nearest"
+    source_rows: tuple[int | None, ...]  #: the rows the replacement was taken from
+
+    def describe(self) -> str:
+        what = "the nub at the pole" if self.kind == "nub" else "an outlier"
+        rows = ", ".join(str(r) for r in self.source_rows)
+        return (f"dropped as {what}: deviation {self.deviation:+.4f} mm where its neighbours' trend is "
+                f"{self.trend:+.4f} mm; replaced by {self.replacement:+.4f} mm ({self.how} from rows {rows})")
+
+
+@dataclass(frozen=True)
+class Screening:
+    """Deviations with the dropped points replaced, in the order given."""
+
+    deviation: np.ndarray  #: mm, cleaned
+    kept: np.ndarray  #: bool, False where a point was dropped
+    trend: np.ndarray  #: mm, the robust local trend
+    sigma: float  #: mm, robust scale of the residuals from the trend
+    threshold: float  #: mm, the residual beyond which a point is dropped
+    dropped: tuple[Dropped, ...]
+    notes: tuple[str, ...]
+
+
+def lowess(s: np.ndarray, y: np.ndarray, frac: float = 0.3, passes: int = 3) -> np.ndarray:
+    """Robust locally linear smooth of ``y`` over ``s`` (Cleveland 1979), at the points ``s``."""
+    n = len(s)
+    q = min(n, max(6, int(np.ceil(frac * n)) + 1))
+    robust = np.ones(n)
+    fitted = np.array(y, dtype=float)
+    for step in range(passes + 1):
+        for i in range(n):
+            distance = np.abs(s - s[i])
+            h = np.partition(distance, q - 1)[q - 1] * 1.0001 + 1e-12
+            w = np.clip(1.0 - (distance / h) ** 3, 0.0, None) ** 3 * robust
+            w[i] = 0.0
+            fitted[i] = _line_at(s, y, w, s[i])
+        if step == passes:
+            break
+        residuals = y - fitted
+        scale = 6.0 * np.median(np.abs(residuals))
+        if scale == 0.0:
+            break
+        robust = np.clip(1.0 - (residuals / scale) ** 2, 0.0, None) ** 2
+    return fitted
+
+
+def _line_at(s: np.ndarray, y: np.ndarray, w: np.ndarray, at: float) -> float:
+    """Weighted least-squares straight line through (s, y), evaluated at ``at``."""
+    total = w.sum()
+    if total <= 0.0:
+        return float(np.mean(y))
+    sm, ym = (w @ s) / total, (w @ y) / total
+    spread = w @ (s - sm) ** 2
+    slope = (w @ ((s - sm) * (y - ym))) / spread if spread > 1e-12 * total else 0.0
+    return float(ym + slope * (at - sm))
+
+
+def _replacement(i: int, s: np.ndarray, y: np.ndarray, good: np.ndarray, fill: str) -> tuple[float, str, np.ndarray]:
+    """(value, how, indexes used) for the dropped point ``i``."""
+    candidates = np.nonzero(good)[0]
+    order = candidates[np.argsort(np.abs(s[candidates] - s[i]), kind="stable")]
+    nearest = order[:1]
+    if fill == "nearest":
+        return float(y[nearest[0]]), "nearest", nearest
+    used = np.sort(order[:FILL_POINTS])
+    low, high = s[used].min(), s[used].max()
+    beyond = max(low - s[i], s[i] - high, 0.0)
+    if len(used) < 2 or high - low <= 0.0 or beyond > high - low:
+        return float(y[nearest[0]]), "nearest", nearest
+    value = _line_at(s[used], y[used], np.ones(len(used)), s[i])
+    return value, ("extrapolated" if beyond > 0.0 else "interpolated"), used
+
+
+def screen(deviation, s, rows=None, *, axis_distance=None, nub_zone: float = 3.0, cutoff: float = 3.5,
+           floor: float = 0.002, fill: str = "extrapolate", max_fraction: float = 0.25, path: str | None = None,
+           reporter: Reporter | None = None) -> Screening:
+    """Find the nub and outliers among ``deviation`` (mm) at arc lengths ``s`` and replace them.
+
+    :param rows: the data row of each point, for the notes (1-based lines of the probe file).
+    :param axis_distance: each touched point's distance from the spindle axis (|x|, mm); without
+        it no point is called the nub.
+    :param nub_zone: how near the axis (mm) a high point is the nub; the stylus radius is a good
+        choice: a nub on the axis is touched only while the ball overlaps it.
+    :param cutoff: multiples of the robust sigma beyond which a point is dropped.
+    :param floor: mm; residuals below this are never dropped (the probe's repeatability).
+    :param fill: "extrapolate" or "nearest" (see the module documentation).
+    :param path: the probe file, for messages; ``reporter`` gets one warning per dropped point.
+    :returns: the cleaned deviations, which points were dropped, why, and what replaced them.
+    """
+    if fill not in FILLS:
+        raise ValueError(f"fill must be one of {FILLS}, not {fill!r}")
+    y = np.asarray(deviation, dtype=float)
+    s = np.asarray(s, dtype=float)
+    n = len(y)
+    rows = tuple(rows) if rows is not None else (None,) * n
+    kept = np.ones(n, dtype=bool)
+    if n < MIN_POINTS:
+        note = f"{n} points: too few to screen for outliers (at least {MIN_POINTS}); none dropped"
+        return Screening(y.copy(), kept, y.copy(), 0.0, 0.0, (), (note,))
+    order = np.argsort(s, kind="stable")
+    trend = np.empty(n)
+    trend[order] = lowess(s[order], y[order])
+    residual = y - trend
+    sigma = MAD_SIGMA * float(np.median(np.abs(residual - np.median(residual))))
+    threshold = max(cutoff * sigma, floor)
+    kept = np.abs(residual) <= threshold
+    count = int(n - kept.sum())
+    if count > max_fraction * n:
+        raise MeasurementError(
+            f"{count} of {n} points lie more than {threshold:.4f} mm from the trend of their neighbours: the "
+            "points do not follow a smooth profile (check the calibration, the program and the file)",
+            Location(path) if path else None,
+        )
+    near = np.zeros(n, dtype=bool) if axis_distance is None else np.asarray(axis_distance, dtype=float) <= nub_zone
+    cleaned = y.copy()
+    dropped = []
+    for i in np.nonzero(~kept)[0]:
+        value, how, used = _replacement(int(i), s, y, kept, fill)
+        kind = "nub" if near[i] and residual[i] > 0 else "outlier"
+        cleaned[i] = value
+        dropped.append(Dropped(int(i), rows[i], kind, float(y[i]), float(trend[i]), value, how,
+                               tuple(rows[j] for j in used)))
+    nubs = sum(d.kind == "nub" for d in dropped)
+    notes = [f"screening {n} points: robust sigma {sigma:.4f} mm, threshold {threshold:.4f} mm "
+             f"({cutoff:g} sigma, at least {floor:g}); {nubs} nub and {len(dropped) - nubs} outlier points dropped"]
+    for d in dropped:
+        notes.append(f"{path or 'probe'}:{d.row}: {d.describe()}" if d.row is not None else d.describe())
+        if reporter is not None:
+            reporter.warn(d.describe(), Location(path, d.row) if path else None)
+    return Screening(cleaned, kept, trend, sigma, threshold, tuple(dropped), tuple(notes))
