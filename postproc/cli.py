@@ -48,7 +48,30 @@ def _profile(machine: str | None) -> profiles.MachineProfile:
     return profiles.load(machine) if machine else profiles.DEFAULT
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class _Commands(click.Group):
+    """Commands in modules of their own are imported when used, so that ``postproc check``
+    does not pay for numpy, scipy or matplotlib."""
+
+    modules = {
+        "ballbar": "postproc.commands.ballbar",
+        "budget": "postproc.commands.budget",
+        "simulate": "postproc.commands.simulate",
+    }
+
+    def list_commands(self, ctx):
+        return sorted(set(super().list_commands(ctx)) | set(self.modules))
+
+    def get_command(self, ctx, name):
+        if name in self.modules and name not in self.commands:
+            import importlib
+
+            command = importlib.import_module(self.modules[name]).command
+            command.callback = _reported(command.callback)
+            self.add_command(command, name)
+        return super().get_command(ctx, name)
+
+
+@click.group(cls=_Commands, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="postproc")
 def main() -> None:
     """Rewrite FANUC lathe part programs so that the next part is cut right."""
@@ -170,3 +193,4 @@ def list_plugins():
 
     for name, item in sorted(compensators().items()):
         click.echo(f"{name} {item.version} {item.cls.summary()}")
+

@@ -51,6 +51,7 @@ WORK = "work-offset"
 DRILL_CANCEL = "drill-cancel"
 DRILL = "drill"  #: G83-G89 drilling cycles with live tools
 MODAL_MACRO, MODAL_MACRO_CANCEL = "modal-macro", "modal-macro-cancel"
+CSS_ON, CSS_OFF = "constant-surface-speed", "constant-surface-speed-cancel"
 
 _COMMON: dict[int, tuple[str, object]] = {
     0: (MOTION, G00),
@@ -110,8 +111,8 @@ _COMMON: dict[int, tuple[str, object]] = {
     870: (MODAL, DRILL),
     880: (MODAL, DRILL),
     890: (MODAL, DRILL),
-    960: (HARMLESS, "constant-surface-speed"),
-    970: (HARMLESS, "constant-surface-speed-cancel"),
+    960: (MODAL, CSS_ON),
+    970: (MODAL, CSS_OFF),
     1120: (UNSUPPORTED, "polar coordinate interpolation"),
     1130: (HARMLESS, "polar-interpolation-cancel"),
 }

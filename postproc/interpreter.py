@@ -19,12 +19,13 @@ Threading (G32, G76, G92) is marked so that no compensator touches it.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field, replace
 from typing import Iterable, Iterator
 
 from . import gcodes as G
 from . import macro
-from .blocks import BLOCK, Block
+from .blocks import BLOCK, HEADER, Block
 from .corners import CornerError, corner_moves
 from .diagnostics import InterpretationError, Location, Reporter
 from .macro import UNKNOWN, VACANT
@@ -116,6 +117,7 @@ class Interpreter:
         self._work: int | None = None  # G54..G59 in force; None until the program names one
         self._fresh_corner: tuple[int, str, float] | None = None
         self._feed_warned = False
+        self._shared = False  # inside a local subprogram called from several places
 
     # ------------------------------------------------------------------ driving
 
@@ -171,6 +173,8 @@ class Interpreter:
 
     def _step(self, block: Block) -> Step:
         if block.kind != BLOCK:
+            if block.kind == HEADER:
+                self._enter_program(block)
             return Step(block, (), self.modal, interpreted=block.kind != BLOCK)
         if self._skip_until is not None:
             step = Step(block, (), self.modal, interpreted=False)
@@ -194,8 +198,26 @@ class Interpreter:
             step = self._uninterpretable(block, exc)
         if in_contour:
             step.in_contour = True
+            step.cycle_line = self._capture.contour.cycle_line
             step.contour_end = self._contour_block(block)
+        step.shared = self._shared
         return step
+
+    def _enter_program(self, block: Block) -> None:
+        """An O number starts a program; a local subprogram called from several places is
+        run with as many start points and states: its blocks are not compensated."""
+        match = re.match(r"\s*[Oo:]\s*(\d+)", block.text)
+        self._shared = False
+        if match is None:
+            return
+        number = int(match.group(1))
+        calls = self.labels.calls.get(number, 0)
+        if calls > 1:
+            self._shared = True
+            self.reporter.warn(
+                f"O{number} is called from {calls} places: its blocks are not compensated",
+                self._location(block, 0),
+            )
 
     def _uninterpretable(self, block: Block, exc: _Uninterpretable) -> Step:
         col = exc.col if exc.col is not None else self._first_col(block)
@@ -422,6 +444,10 @@ class Interpreter:
         if meaning == G.DRILL_CANCEL:
             self._drilling = False
             return modal
+        if meaning == G.CSS_ON:
+            return replace(modal, css=True)
+        if meaning == G.CSS_OFF:
+            return replace(modal, css=False)
         if meaning == G.MODAL_MACRO:
             self._modal_macro = True
             return modal
@@ -436,12 +462,19 @@ class Interpreter:
             feed = values["F"] * (INCH if modal.inch else 1.0)
             if feed != modal.feed:
                 modal = replace(modal, feed=feed)
+        if "S" in values and not self._clamps_spindle(words):
+            if values["S"] != modal.spindle:
+                modal = replace(modal, spindle=values["S"])
         if "T" in values:
             t = int(values["T"])
             tool, offset = (t // 100, t % 100) if t >= 100 else (t, None)
             if (tool, offset) != (modal.tool, modal.offset):
                 modal = replace(modal, tool=tool, offset=offset)
         return modal
+
+    def _clamps_spindle(self, words: _Words) -> bool:
+        """G50 S (G92 S in systems B and C) sets the spindle speed limit, not the speed."""
+        return any(self.table.get(key, (None, None))[1] == G.COORDINATE for key in words.g)
 
     def _check_addresses(self, block: Block, words: _Words, one_shot) -> None:
         if one_shot is not None and one_shot[1] in (G.MACRO_CALL, G.DATA):
@@ -614,6 +647,8 @@ class Interpreter:
         if meaning in (G.DWELL, G.DATA):
             return Step(block, (), self.modal)
         if meaning == G.COORDINATE:
+            if "S" in values:
+                self.modal = replace(self.modal, clamp=values["S"])
             if any(letter in values for letter in "XZ") or any(letter in words.unknown for letter in "XZ"):
                 x, z = self.x, self.z
                 diameter = 0.5 if self.profile.diameter_x else 1.0

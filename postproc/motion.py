@@ -77,6 +77,20 @@ class Modal:
     feed: float | None = None
     tool: int | None = None
     offset: int | None = None  #: tool offset number (T0303 -> 3)
+    spindle: float | None = None  #: S in force: rpm, or surface speed under G96
+    css: bool = False  #: G96 constant surface speed in force
+    clamp: float | None = None  #: spindle speed limit (G50 S in system A)
+
+    def rpm(self, x: float, limit: float) -> float:
+        """Spindle speed at radius ``x`` (mm): the surface speed's rpm under G96, clamped."""
+        top = min(self.clamp or limit, limit)
+        if self.spindle is None:
+            return top
+        if not self.css:
+            return min(self.spindle, top)
+        surface = self.spindle * (304.8 if self.inch else 1000.0)  # mm per minute
+        diameter = 2.0 * abs(x)
+        return top if diameter == 0 else min(surface / (3.141592653589793 * diameter), top)
 
 
 @dataclass(slots=True)
@@ -89,3 +103,5 @@ class Step:
     interpreted: bool = True  #: False when the block could not be interpreted (it passes through)
     in_contour: bool = False  #: the block belongs to a P..Q cycle contour
     contour_end: bool = False  #: the block is its contour's last (the Q label the cycle looks for)
+    cycle_line: int | None = None  #: for a contour block, the line of the cycle that runs it
+    shared: bool = False  #: the block is in a local subprogram called from more than one place

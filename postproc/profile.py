@@ -38,6 +38,7 @@ class MachineProfile:
     arc_radius_tolerance: float = 0.01  #: the control's arc check: start and end radii may differ by this
     max_arc_radius: float = 5000.0  #: an arc above this radius is emitted as lines
     min_block_time_s: float = 0.001  #: shortest block the look-ahead digests at full feed
+    max_spindle_rpm: float = 4000.0  #: the spindle's top speed (bounds G96 near the axis)
     x_limits: tuple[float, float] = (-5.0, 265.0)  #: soft limits of X travel, radius mm
     z_limits: tuple[float, float] = (-450.0, 450.0)  #: soft limits of Z travel
     tolerance: float | None = None  #: default tolerance; None: formats.md's rule
@@ -57,10 +58,17 @@ class MachineProfile:
         return 10.0**-decimals * (25.4 if inch else 1.0)
 
     def default_tolerance(self, inch: bool) -> float:
-        """formats.md: 0.001 mm or twice the output resolution, whichever is larger."""
+        """formats.md: 0.001 mm, or twice the output resolution where that is larger.
+
+        An inch program written to 0.0001 in (2.54 um) cannot be held to 1 um, so it gets
+        0.00508 mm. A metric program written to 0.001 mm can: the segmenter picks, among the
+        grid points around each vertex, the one nearest the path, so rounding spends only
+        part of the tolerance, and 1 um is kept; coarser metric output gets twice its step.
+        """
         if self.tolerance is not None:
             return self.tolerance
-        return max(0.001, 2.0 * self.resolution_mm(inch))
+        step = self.resolution_mm(inch)
+        return max(0.001, 2.0 * step) if (inch or step > 0.001) else 0.001
 
 
 DEFAULT = MachineProfile()

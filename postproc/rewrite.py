@@ -124,6 +124,7 @@ class Settings:
     diameter: bool = True
     system: str = "A"
     min_block_time_s: float = 0.001
+    max_spindle_rpm: float = 4000.0
     default_tolerance: Callable[[bool], float] = lambda inch: 0.001
 
 
@@ -144,6 +145,7 @@ class Rewriter:
         self.replaced = 0  #: blocks replaced
         self.emitted = 0  #: blocks written for them
         self.worst = 0.0  #: largest measured deviation from a target, mm
+        self._contour: tuple[list[Cut], list[Cut]] | None = None
 
     # ------------------------------------------------------------------ streaming
 
@@ -174,6 +176,7 @@ class Rewriter:
     def _candidate(self, step: Step, move: Move) -> bool:
         return (
             step.interpreted
+            and not step.shared
             and move.kind in (LINE, ARC)
             and move.exact
             and move.known
@@ -350,14 +353,17 @@ class Rewriter:
                 writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
                 yield with_motion_code(block, writer.code(before, Style.of(block)))
                 self.mode_now = before
-            elif sets_mode or self.mode_now is None:
+                return
+            if sets_mode or self.mode_now is None:
                 self.mode_now = step.modal.motion
+            self._follow_contour(step, None)
             yield block.raw
             return
         cuts = self._cuts(entry)
         writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
         lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
         self._self_check(entry, lines, cuts)
+        self._follow_contour(step, cuts)
         self.mode_now = mode
         self.replaced += 1
         self.emitted += len(lines)
@@ -405,13 +411,81 @@ class Rewriter:
     def _plan(self, step: Step, target: Target) -> Plan:
         settings = self.settings
         limits = Limits(self._tolerance(step), self._grid(step), settings.arc_radius_tolerance, settings.max_arc_radius)
+        where = Location(self.file, step.block.line, None, step.block.text)
         try:
             result = plan(target, limits, settings.mode)
         except PlanError as exc:
-            raise SafetyError(f"block cannot be compensated within tolerance: {exc}",
-                              Location(self.file, step.block.line, None, step.block.text)) from None
+            raise SafetyError(f"block cannot be compensated within tolerance: {exc}", where) from None
+        result = self._keep_long(result, target, limits, self._shortest(step, result.cuts), where)
         self.worst = max(self.worst, result.deviation)
         return result
+
+    def _shortest(self, step: Step, cuts: list[Cut]) -> float:
+        """The shortest block the control's look-ahead digests at this feed (mm)."""
+        move = next((m for m in step.moves if m.kind in (LINE, ARC)), None)
+        if move is None or move.feed is None:
+            return 0.0
+        feed = move.feed
+        if move.per_rev:
+            x = min(min(abs(c.x0), abs(c.x1)) for c in cuts)
+            feed *= step.modal.rpm(x, self.settings.max_spindle_rpm)
+        return feed * self.settings.min_block_time_s / 60.0
+
+    def _keep_long(self, result: Plan, target: Target, limits: Limits, shortest: float, where: Location) -> Plan:
+        """Merge blocks shorter than the look-ahead digests; widen with a warning, or refuse."""
+        cuts = list(result.cuts)
+        if shortest <= 0.0 or len(cuts) < 2 or all(cut.length >= shortest for cut in cuts):
+            return result
+        segmenter = Segmenter(target, limits)
+        while len(cuts) > 1:
+            short = [i for i, cut in enumerate(cuts) if cut.length < shortest]
+            if not short:
+                break
+            i = short[0]
+            j = i - 1 if i == len(cuts) - 1 or (i > 0 and cuts[i - 1].length < cuts[i + 1].length) else i + 1
+            a, b = sorted((i, j))
+            cuts[a : b + 1] = [Cut(cuts[a].x0, cuts[a].z0, cuts[b].x1, cuts[b].z1)]
+        deviation = segmenter.measure(cuts)
+        tolerance = limits.tolerance
+        if deviation > 2.0 * tolerance:
+            raise SafetyError(
+                f"blocks shorter than {shortest * 1000:.1f} um (the minimum block time at this feed) are needed to keep "
+                f"within {tolerance * 1000:.2f} um; merging them would leave {deviation * 1000:.2f} um", where)
+        if deviation > tolerance:
+            self.reporter.warn(
+                f"blocks merged to keep them longer than {shortest * 1000:.1f} um (minimum block time at this feed): "
+                f"tolerance widened to {deviation * 1000:.2f} um here", where)
+        return Plan(cuts, deviation, result.method + "+merged")
+
+    # ------------------------------------------------------------------ cycle contours
+
+    def _follow_contour(self, step: Step, cuts: list[Cut] | None) -> None:
+        """Collect a P..Q contour as planned and as written; at its end, check the cycle's rules."""
+        if not step.in_contour:
+            return
+        contour = self._contour
+        if contour is None:
+            contour = self._contour = ([], [])
+        nominal = [_cut_of(m) for m in step.moves if m.role == CONTOUR and m.known]
+        contour[0].extend(nominal)
+        if cuts is None:  # written as it was: from wherever the previous block left the tool
+            cuts = list(nominal)
+            if cuts and contour[1] and not cuts[0].is_arc:
+                cuts[0] = replace(cuts[0], x0=contour[1][-1].x1, z0=contour[1][-1].z1)
+        contour[1].extend(cuts)
+        if step.contour_end:
+            self._contour = None
+            self._check_monotone(step, *contour)
+
+    def _check_monotone(self, step: Step, nominal: list[Cut], written: list[Cut]) -> None:
+        """A G71/G72 contour must keep running one way in each axis it ran one way before."""
+        for axis, name in ((0, "X"), (1, "Z")):
+            direction = _monotone(nominal, axis)
+            if direction and _monotone(written, axis) not in (direction, 0):
+                raise SafetyError(
+                    f"the compensated contour of the cycle on line {step.cycle_line} would no longer run one way in "
+                    f"{name}, as the cycle requires (FANUC alarm PS0064); the run is refused",
+                    Location(self.file, step.block.line, None, step.block.text))
 
     # ------------------------------------------------------------------ self-check
 
@@ -438,9 +512,10 @@ class Rewriter:
         for edit in entry.edits:
             if edit is None:
                 continue
-            for target, (first, stop) in zip(edit.targets, edit.spans):
+            for target, planned, (first, stop) in zip(edit.targets, edit.plans, edit.spans):
                 deviation = Segmenter(target, Limits(tolerance, self._grid(step))).measure(read_back[first:stop])
-                if deviation > tolerance * (1 + 1e-9):
+                allowed = max(tolerance, planned.deviation)  # a widening was warned about already
+                if deviation > allowed * (1 + 1e-9):
                     raise SafetyError(
                         f"self-check: the replacement runs {deviation * 1000:.2f} um from the intended path "
                         f"(tolerance {tolerance * 1000:.2f} um)", where)
@@ -450,6 +525,16 @@ def _cut_of(move: Move) -> Cut:
     if move.kind == ARC:
         return Cut(move.x0, move.z0, move.x1, move.z1, move.xc, move.zc, move.cw)
     return Cut(move.x0, move.z0, move.x1, move.z1, rapid=move.kind == RAPID)
+
+
+def _monotone(cuts: list[Cut], axis: int) -> int:
+    """+1 or -1 when the path never turns back along the axis, 0 when it does not move, None when it turns."""
+    values = np.concatenate([cut.sample(0.5) for cut in cuts])[:, axis] if cuts else np.zeros(1)
+    steps = np.diff(values)
+    rising, falling = bool(np.any(steps > 1e-7)), bool(np.any(steps < -1e-7))
+    if rising and falling:
+        return None
+    return 1 if rising else (-1 if falling else 0)
 
 
 def _numbers(cut: Cut) -> tuple[float, ...]:

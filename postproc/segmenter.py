@@ -430,25 +430,40 @@ class Segmenter:
         return None
 
     def lines(self) -> Plan | None:
-        """Chords whose vertices straddle the target (polar interpolation about an arc)."""
-        offset = max(self.tol - 0.55 * self.grid.rounding_error, 0.0) * 0.95
-        cuts, i = [], 0
-        start = self._vertex(0)
-        while i < self.last:
-            def chord(a_index: int, b_index: int, start=start):
-                end = self._vertex(b_index, 0.0 if b_index == self.last else offset)
-                if end == start:
-                    return None
-                cut = Cut(start[0], start[1], end[0], end[1])
-                return cut if self._measure_chord(cut, a_index, b_index) <= self.tol else None
+        """Chords whose vertices straddle the target (polar interpolation about an arc).
 
-            j, cut = self._reach(i, chord)
+        A vertex stands outside the target by nearly the tolerance; where rounding leaves one
+        so far out that no chord can leave it, the chord before is redone ending on the target.
+        """
+        offset = max(self.tol - 0.55 * self.grid.rounding_error, 0.0) * 0.92
+        cuts: list[Cut] = []
+        starts: list[int] = []
+        i, start = 0, self._vertex(0)
+        while i < self.last:
+            j, cut = self._reach(i, self._chord_maker(start, offset))
             if cut is None:
-                return None
+                if not cuts:
+                    return None
+                cuts.pop()
+                i = starts.pop()
+                start = cuts[-1].end if cuts else self._vertex(0)
+                j, cut = self._reach(i, self._chord_maker(start, 0.0))
+                if cut is None:
+                    return None
             cuts.append(cut)
-            start = cut.end
-            i = j
+            starts.append(i)
+            start, i = cut.end, j
         return self._finish(cuts, "lines")
+
+    def _chord_maker(self, start: tuple[float, float], offset: float):
+        def chord(i: int, j: int) -> Cut | None:
+            end = self._vertex(j, 0.0 if j == self.last else offset)
+            if end == start:
+                return None
+            cut = Cut(start[0], start[1], end[0], end[1])
+            return cut if self._measure_chord(cut, i, j) <= self.tol else None
+
+        return chord
 
     def _measure_chord(self, cut: Cut, i: int, j: int) -> float:
         """A chord's vertices stand off the target on purpose: measure only across it."""

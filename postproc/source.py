@@ -23,6 +23,7 @@ MAX_PROGRAM_BYTES = 2 * 1024**3  #: 2 GiB: far beyond any control's memory
 
 _LABEL = re.compile(rb"(?m)^[ \t]*(?:/[1-9]?[ \t]*)?[Nn][ \t]*(\d+)")
 _GOTO = re.compile(rb"(?i)goto[ \t]*(\d+|[#\[])")
+_CALL = re.compile(rb"(?i)(?:m[ \t]*0*98|g[ \t]*0*65)[^\r\n(]*?p[ \t]*(\d+)")
 
 
 @dataclass
@@ -33,6 +34,7 @@ class LabelIndex:
     counts: dict[int, int] = field(default_factory=dict)  #: label -> occurrences
     goto_targets: set[int] = field(default_factory=set)
     computed_goto: bool = False  #: a GOTO whose target is an expression: any label may be a target
+    calls: dict[int, int] = field(default_factory=dict)  #: program number -> places that call it (M98/G65)
 
 
 class Source:
@@ -109,6 +111,10 @@ class Source:
                 if len(places) < 2:
                     places.append(line)
             line += _count_lines(chunk, last, len(chunk))
+            for match in _CALL.finditer(chunk):
+                number = int(match.group(1))
+                number = number % 10000 if number > 9999 else number  # M98 P31234: 3 times O1234
+                index.calls[number] = index.calls.get(number, 0) + 1
             for match in _GOTO.finditer(chunk):
                 target = match.group(1)
                 if target.isdigit():

@@ -60,6 +60,8 @@ class BallbarTrace:
             gaps = np.diff(np.concatenate([angles, [angles[0] + 360.0]]))
             return float(gaps.max())
         span = (end - start) % 360.0 or 360.0
+        if span >= 360.0:
+            return self.max_gap(None)
         inside = np.sort((angles - start) % 360.0)
         inside = inside[inside <= span]
         points = np.concatenate([[0.0], inside, [span]])

@@ -1,0 +1,108 @@
+"""iterative: the residuals of several compensation iterations, summed and inverted."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from postproc.compensator import Measurements, Option
+from postproc.diagnostics import Location, MeasurementError
+from postproc.hookspecs import hookimpl
+from postproc.measurements.ballbar import BallbarTrace
+from postproc.traces import trace_from_model, trace_model
+from postproc_plugins.ballbar_inverse import BallbarInverse
+
+
+class Summed:
+    """The summed residual of a direction's iterations, read like one trace."""
+
+    def __init__(self, traces: list[BallbarTrace], threshold: float | None):
+        self.traces = traces
+        self.threshold = threshold
+        first = traces[0]
+        self.path, self.radius, self.direction, self.centre = first.path, first.radius, first.direction, first.centre
+
+    def at(self, theta_deg) -> np.ndarray:
+        """e_sum(theta) = sum of e_i(theta) (eq. 6.2); selective: only where |e_i| > threshold."""
+        total = np.zeros(np.shape(theta_deg))
+        for trace in self.traces:
+            error = trace.at(theta_deg)
+            if self.threshold is not None:
+                error = np.where(np.abs(error) > self.threshold, error, 0.0)
+            total = total + error
+        return total
+
+    def require(self, start: float, end: float, max_gap: float, use: str) -> None:
+        for trace in self.traces:
+            trace.require(start, end, max_gap, use)
+
+    def points(self) -> np.ndarray:
+        theta = np.radians(self.traces[0].angles)
+        r = self.radius + self.at(self.traces[0].angles)
+        return np.column_stack([self.centre[0] + r * np.cos(theta), self.centre[1] + r * np.sin(theta)])
+
+    @property
+    def angles(self) -> np.ndarray:
+        return self.traces[0].angles
+
+
+class Iterative(BallbarInverse):
+    """Invert the sum of the residuals of iterations 1..N (methods.md 5, eq. 6.2).
+
+    What it corrects: what ``ballbar-inverse`` corrects, iteratively. Iteration 1 is the
+    original trace; each later trace is measured on the path the previous iteration
+    produced. Trajectory N is the nominal inverted by the sum of all residuals measured so
+    far, so a residual that a single inversion leaves is taken out at the next cut.
+
+    What it needs: ``--ballbar`` traces in iteration order (first the original trace, then
+    the residual of each compensated run), of one direction or of both (each direction is
+    summed on its own, in the order given). If the bar was not re-mounted between
+    iterations, mark the later traces ``centered = true`` so the set-up centre of the first
+    is not removed again (a later trace's least-squares centre also holds the centre shift
+    the compensated path made on purpose).
+
+    Options: ``selective=MM`` adds a residual to the sum only where its magnitude exceeds
+    MM, so in-tolerance residuals do not pile up over iterations and push good points out;
+    ``radius-mapping`` and ``max-gap`` as for ``ballbar-inverse``.
+
+    Example: traces reading +5 um, then -1 um, then +0.5 um on the hemishell arc sum to
+    +4.5 um::
+
+        G03 X114.3 Z0. I0. K-57.15   becomes   G03 X114.291 Z0. I0. K-57.1455
+    """
+
+    name = "iterative"
+    options = BallbarInverse.options + (
+        Option("selective", float, None, "add a residual only where it exceeds this many mm", positive=True),
+    )
+
+    def fit(self, measurements: Measurements) -> None:
+        by_direction: dict[str, list[BallbarTrace]] = {}
+        for trace in measurements.ballbar:
+            by_direction.setdefault(trace.direction, []).append(trace)
+        radii = {round(trace.radius, 9) for trace in measurements.ballbar}
+        if len(radii) > 1:
+            raise MeasurementError(f"{self.name}: the iterations' traces are of different radii {sorted(radii)}",
+                                   Location(measurements.ballbar[-1].path))
+        self._sequences = by_direction
+        threshold = self.settings["selective"]
+        self.traces = {direction: Summed(traces, threshold) for direction, traces in by_direction.items()}
+        self._warned = False
+
+    def model(self) -> dict:
+        return {"selective": self.settings["selective"],
+                "iterations": {d: [trace_model(t) for t in traces] for d, traces in self._sequences.items()}}
+
+    def load(self, model: dict) -> None:
+        self._sequences = {d: [trace_from_model(t, d) for t in traces] for d, traces in model["iterations"].items()}
+        self.settings["selective"] = model.get("selective")
+        self.traces = {d: Summed(traces, self.settings["selective"]) for d, traces in self._sequences.items()}
+        self._warned = False
+
+    def report(self) -> dict:
+        return {d: {"iterations": [t.path for t in traces]} for d, traces in self._sequences.items()}
+
+
+@hookimpl
+def postproc_compensators():
+    return [Iterative]
+
