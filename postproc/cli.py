@@ -48,6 +48,14 @@ def _profile(machine: str | None) -> profiles.MachineProfile:
     return profiles.load(machine) if machine else profiles.DEFAULT
 
 
+def _wrap(command: click.Command) -> None:
+    """Give a command, and every subcommand of a group, the same error reporting."""
+    if command.callback is not None:
+        command.callback = _reported(command.callback)
+    for sub in getattr(command, "commands", {}).values():
+        _wrap(sub)
+
+
 class _Commands(click.Group):
     """Commands in modules of their own are imported when used, so that ``postproc check``
     does not pay for numpy, scipy or matplotlib."""
@@ -66,7 +74,7 @@ class _Commands(click.Group):
             import importlib
 
             command = importlib.import_module(self.modules[name]).command
-            command.callback = _reported(command.callback)
+            _wrap(command)
             self.add_command(command, name)
         return super().get_command(ctx, name)
 

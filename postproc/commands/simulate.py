@@ -1,0 +1,172 @@
+"""``postproc simulate ballbar|cut|probe|calibrate|inspect``: the virtual lathe on the command line.
+
+Each subcommand writes one file in its formats.md form (the surface of ``cut`` in postproc's
+own form) to ``-o FILE`` or stdout; ``inspect`` prints the four figures, or with ``--json`` one
+JSON object with them and the deviation at each point. The machine, probe and set-up come
+from the ``[simulation]`` table of ``--machine FILE.toml`` (none: a perfect machine); options
+override the table's defaults. The same ``--seed`` gives the same file. Errors are raised as
+PostprocError for the command line to report.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+
+import click
+
+from ..diagnostics import OptionError, Reporter
+from ..output import STDOUT, write_atomically
+from ..simulator import ballbar_test, calibrate, cut, generator, inspect, load, nominal, probe_profile, read_program
+from ..simulator.files import calibration_text, probe_text, read_surface, surface_text, trace_text
+from ..simulator.nominal import MATERIAL
+
+
+def _machine(function):
+    return click.option("--machine", metavar="FILE", help="A machine profile (TOML) with a [simulation] table.")(function)
+
+
+def _seed(function):
+    return click.option("--seed", type=int, metavar="N", help="Seed of the noise (default: the table's seed).")(function)
+
+
+def _output(function):
+    return click.option("-o", "--output", "output", default=STDOUT, metavar="FILE",
+                        help="Write the file here instead of stdout.")(function)
+
+
+def _profile_options(function):
+    function = click.option("--material", type=click.Choice(MATERIAL), default="axis", show_default=True,
+                            help="Which side of the profile is material: towards the spindle axis, or left/right "
+                                 "of the direction of travel.")(function)
+    function = click.option("--to-line", type=int, metavar="N", help="Profile: moves up to this source line.")(function)
+    function = click.option("--from-line", type=int, metavar="N", help="Profile: moves from this source line.")(function)
+    return click.argument("program", default="-")(function)
+
+
+def _provenance(command: str, machine: str | None, seed: int | None = None, program: str | None = None) -> dict:
+    facts: dict[str, object] = {"simulated-by": f"postproc simulate {command}", "machine": machine or "perfect"}
+    if seed is not None:
+        facts["seed"] = seed
+    if program is not None:
+        facts["program"] = program
+    return facts
+
+
+def _count(points: int | None) -> int | None:
+    if points is not None and points < 2:
+        raise OptionError(f"--points {points}: at least 2 points are needed")
+    return points
+
+
+def _setup(machine, program, from_line, to_line, material):
+    simulation, profile = load(machine)
+    reporter = Reporter(sys.stderr)
+    name, moves = read_program(program, profile, reporter)
+    reporter.close()
+    return simulation, name, moves, nominal(moves, from_line, to_line, material, name)
+
+
+def _surface(path, simulation, moves, profile_of):
+    return read_surface(path) if path else cut(moves, profile_of, simulation)
+
+
+@click.group("simulate")
+def command() -> None:
+    """The virtual lathe: ballbar tests, cuts, probing and inspection (methods.md 8)."""
+
+
+@command.command("ballbar")
+@_machine
+@_seed
+@click.option("--direction", type=click.Choice(["ccw", "cw"]), default="ccw", show_default=True,
+              help="ccw: the G03 run (theta decreasing); cw: the G02 run.")
+@click.option("--form", type=click.Choice(["processed", "raw"]), default="processed", show_default=True)
+@click.option("--radius", type=float, metavar="MM", help="Test radius (default: the table's).")
+@click.option("--center-x", type=float, metavar="MM", help="Test centre x (radius mm).")
+@click.option("--center-z", type=float, metavar="MM", help="Test centre z.")
+@click.option("--feed", type=float, metavar="MM/MIN", help="Feed (default: the table's).")
+@_output
+def ballbar(machine, seed, direction, form, radius, center_x, center_z, feed, output):
+    """A ballbar trace: the 720 deg test of methods.md 3 in one direction."""
+    simulation, _ = load(machine)
+    seed = simulation.seed if seed is None else seed
+    centre = None
+    if center_x is not None or center_z is not None:
+        centre = (simulation.ballbar.center_x_mm if center_x is None else center_x,
+                  simulation.ballbar.center_z_mm if center_z is None else center_z)
+    if radius is not None and not radius > 0:
+        raise OptionError(f"--radius {radius:g}: the radius must be positive")
+    run = ballbar_test(simulation, generator(seed, f"ballbar-{direction}-{form}"), direction, form, radius, centre, feed)
+    write_atomically(output, trace_text(run, _provenance("ballbar", machine, seed)).encode())
+
+
+@command.command("cut")
+@_profile_options
+@_machine
+@_output
+def cut_command(program, from_line, to_line, material, machine, output):
+    """The surface a program's profile leaves: a dense polyline ordered along the path."""
+    simulation, name, moves, profile_of = _setup(machine, program, from_line, to_line, material)
+    surface = cut(moves, profile_of, simulation)
+    write_atomically(output, surface_text(surface, _provenance("cut", machine, program=name)).encode())
+
+
+@command.command("probe")
+@_profile_options
+@click.option("--surface", metavar="FILE", help="The surface to probe (from 'simulate cut'); default: cut it now.")
+@click.option("--points", type=int, metavar="N", help="Touches along the profile (default: the table's).")
+@_machine
+@_seed
+@_output
+def probe(program, from_line, to_line, material, surface, points, machine, seed, output):
+    """A probe file: touches spread along the profile, the datum before and after."""
+    points = _count(points)
+    simulation, name, moves, profile_of = _setup(machine, program, from_line, to_line, material)
+    seed = simulation.seed if seed is None else seed
+    run = probe_profile(_surface(surface, simulation, moves, profile_of), profile_of, simulation,
+                        generator(seed, "probe"), points)
+    write_atomically(output, probe_text(run, _provenance("probe", machine, seed, name)).encode())
+
+
+@command.command("calibrate")
+@_machine
+@_seed
+@click.option("--radius", type=float, metavar="MM", help="Artifact radius (default: the table's).")
+@click.option("--center-x", type=float, metavar="MM", help="Artifact centre x (radius mm).")
+@click.option("--center-z", type=float, metavar="MM", help="Artifact centre z.")
+@click.option("--step-deg", type=float, metavar="DEG", help="Angle between touches (default: the table's).")
+@_output
+def calibrate_command(machine, seed, radius, center_x, center_z, step_deg, output):
+    """A probe calibration on the sphere artifact: touches over its top 180 deg."""
+    simulation, _ = load(machine)
+    seed = simulation.seed if seed is None else seed
+    for name, value in (("--radius", radius), ("--step-deg", step_deg)):
+        if value is not None and not value > 0:
+            raise OptionError(f"{name} {value:g}: must be positive")
+    changes = {key: value for key, value in (("radius_mm", radius), ("center_x_mm", center_x),
+                                             ("center_z_mm", center_z), ("step_deg", step_deg)) if value is not None}
+    artifact = dataclasses.replace(simulation.artifact, **changes)
+    run = calibrate(simulation, generator(seed, "calibrate"), artifact)
+    write_atomically(output, calibration_text(run, _provenance("calibrate", machine, seed)).encode())
+
+
+@command.command("inspect")
+@_profile_options
+@click.option("--surface", metavar="FILE", help="The surface to inspect (from 'simulate cut'); default: cut it now.")
+@click.option("--points", type=int, metavar="N", help="Points along the profile (default: the table's).")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of the figures.")
+@_machine
+@_seed
+def inspect_command(program, from_line, to_line, material, surface, points, as_json, machine, seed):
+    """A virtual CMM: deviations from the nominal profile along its normal, and the four figures."""
+    points = _count(points)
+    simulation, name, moves, profile_of = _setup(machine, program, from_line, to_line, material)
+    seed = simulation.seed if seed is None else seed
+    result = inspect(_surface(surface, simulation, moves, profile_of), profile_of, simulation,
+                     generator(seed, "inspect"), points)
+    if as_json:
+        click.echo(json.dumps({"program": name, **result.as_dict()}, indent=2, allow_nan=False))
+    else:
+        click.echo(f"{name}: {result.figures}")
