@@ -56,6 +56,8 @@ def hyper_fit(points) -> tuple[float, float, float]:
     p = as_points(points)
     if len(p) < 3:
         raise FitError(f"a circle needs 3 points, {len(p)} given")
+    if len(p) == 3:
+        return circumcircle(p)
     centroid = p.mean(axis=0)
     x, z = p[:, 0] - centroid[0], p[:, 1] - centroid[1]
     zz = x * x + z * z
@@ -84,6 +86,18 @@ def hyper_fit(points) -> tuple[float, float, float]:
     zc = -a[2] / a[0] / 2 + centroid[1]
     r = math.sqrt(a[1] ** 2 + a[2] ** 2 - 4 * a[0] * a[3]) / abs(a[0]) / 2
     return float(xc), float(zc), float(r)
+
+
+def circumcircle(points) -> tuple[float, float, float]:
+    """The circle through three points."""
+    (ax, az), (bx, bz), (cx, cz) = as_points(points)
+    d = 2.0 * (ax * (bz - cz) + bx * (cz - az) + cx * (az - bz))
+    if abs(d) < 1e-300:
+        raise FitError("the points lie on a straight line: no circle")
+    a2, b2, c2 = ax * ax + az * az, bx * bx + bz * bz, cx * cx + cz * cz
+    xc = (a2 * (bz - cz) + b2 * (cz - az) + c2 * (az - bz)) / d
+    zc = (a2 * (cx - bx) + b2 * (ax - cx) + c2 * (bx - ax)) / d
+    return float(xc), float(zc), float(math.hypot(ax - xc, az - zc))
 
 
 def _covariance(jacobian: np.ndarray, residuals: np.ndarray) -> np.ndarray:

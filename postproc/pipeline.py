@@ -128,6 +128,7 @@ class Pipeline:
             diameter=self.profile.diameter_x,
             system=self.profile.gcode_system,
             min_block_time_s=self.profile.min_block_time_s,
+            max_spindle_rpm=self.profile.max_spindle_rpm,
             default_tolerance=self.profile.default_tolerance,
         )
         steps = interpret_source(source, self.profile, self.reporter)

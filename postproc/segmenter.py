@@ -260,18 +260,13 @@ class Segmenter:
         point = self.target.points[index]
         outward = self._outward(index)
         wanted = point + offset * outward
-        steps = (self.grid.x_step, self.grid.z_step)
-        best, best_error = None, math.inf
         base = self.grid.snap(*wanted)
-        for dx in (-1, 0, 1):
-            for dz in (-1, 0, 1):
-                candidate = (base[0] + dx * steps[0], base[1] + dz * steps[1])
-                candidate = self.grid.snap(*candidate)
-                cu, cv = self.frame.uv(np.array([candidate]))
-                target_v = np.interp(cu[0], self.u, self.v)
-                error = abs((cv[0] - target_v) - offset * self._v_sign(outward)) + 0.1 * math.dist(candidate, wanted)
-                if error < best_error:
-                    best, best_error = candidate, error
+        candidates = np.array([self.grid.snap(base[0] + dx * self.grid.x_step, base[1] + dz * self.grid.z_step)
+                               for dx in (-1, 0, 1) for dz in (-1, 0, 1)])
+        cu, cv = self.frame.uv(candidates)
+        stand = cv - np.interp(cu, self.u, self.v)
+        error = np.abs(stand - offset * self._v_sign(outward)) + 0.1 * np.hypot(*(candidates - wanted).T)
+        best = tuple(float(value) for value in candidates[int(np.argmin(error))])
         if offset == 0.0:
             self.vertices[index] = best
         return best
@@ -437,22 +432,24 @@ class Segmenter:
         """
         offset = max(self.tol - 0.55 * self.grid.rounding_error, 0.0) * 0.92
         cuts: list[Cut] = []
-        starts: list[int] = []
-        i, start = 0, self._vertex(0)
+        starts: list[tuple[int, float]] = []  # (sample a chord starts at, how far its end stands off)
+        i, start, stand_off = 0, self._vertex(0), offset
         while i < self.last:
-            j, cut = self._reach(i, self._chord_maker(start, offset))
+            j, cut = self._reach(i, self._chord_maker(start, stand_off))
+            if cut is None and stand_off:  # end this chord on the target instead
+                stand_off = 0.0
+                j, cut = self._reach(i, self._chord_maker(start, stand_off))
             if cut is None:
-                if not cuts:
+                if not cuts or starts[-1][1] == 0.0:
                     return None
                 cuts.pop()
-                i = starts.pop()
+                i, _ = starts.pop()
                 start = cuts[-1].end if cuts else self._vertex(0)
-                j, cut = self._reach(i, self._chord_maker(start, 0.0))
-                if cut is None:
-                    return None
+                stand_off = 0.0  # redo the chord before, ending on the target
+                continue
             cuts.append(cut)
-            starts.append(i)
-            start, i = cut.end, j
+            starts.append((i, stand_off if j != self.last else 0.0))
+            start, i, stand_off = cut.end, j, offset
         return self._finish(cuts, "lines")
 
     def _chord_maker(self, start: tuple[float, float], offset: float):

@@ -34,9 +34,11 @@ def brute_deviation(target: Target, cuts, spacing=0.002) -> float:
     path = np.concatenate([cut.sample(spacing) for cut in cuts])
 
     def one_way(points, polyline):
+        keep = np.concatenate([[True], np.any(np.diff(polyline, axis=0) != 0, axis=1)])
+        polyline = polyline[keep]  # a vertex shared by two cuts appears once
         _, nearest = cKDTree(polyline).query(points)
         best = np.full(len(points), np.inf)
-        for offset in (-1, 0):
+        for offset in (-2, -1, 0, 1):
             i = np.clip(nearest + offset, 0, len(polyline) - 2)
             a, b = polyline[i], polyline[i + 1]
             d = b - a
