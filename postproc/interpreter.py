@@ -29,7 +29,7 @@ from .blocks import BLOCK, HEADER, Block
 from .corners import CornerError, corner_moves
 from .diagnostics import InterpretationError, Location, Reporter
 from .macro import UNKNOWN, VACANT
-from .motion import ARC, CONTOUR, CORNER, CYCLE, LINE, RAPID, REPLAY, RUN, THREAD, Modal, Move, Step
+from .motion import ARC, CONTOUR, CYCLE, LINE, RAPID, REPLAY, RUN, THREAD, Modal, Move, Step
 from .profile import DEFAULT, MachineProfile
 from .source import LabelIndex
 

@@ -33,7 +33,7 @@ from .diagnostics import Location, Reporter, SafetyError
 from .emitter import Style, Writer, with_motion_code
 from .geometry import Arc, Line, segment_of
 from .interpreter import Interpreter
-from .motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Modal, Move, Step
+from .motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
 from .reader import read_blocks
 from .resolution import Grid
 from .segmenter import Cut, Limits, Plan, PlanError, Segmenter, Target, plan, sample_params

@@ -5,13 +5,11 @@ from __future__ import annotations
 import json
 import math
 
-import click
 import pytest
 from click.testing import CliRunner
 from conftest import SAMPLES
 
 from postproc.budget import read_budget
-from postproc.commands.budget import command
 from postproc.diagnostics import MeasurementError
 
 SMALL = """\
@@ -51,17 +49,11 @@ def budget(tmp_path):
 
 @pytest.fixture
 def cli():
-    """``postproc budget ...`` through the real command line once it is registered, else the
-    command wrapped as cli.py wraps every command (PostprocError -> message and exit code)."""
-    from postproc.cli import _reported, main
-
-    if "budget" in main.commands:
-        target, prefix = main, ["budget"]
-    else:
-        target, prefix = click.Command("budget", params=command.params, callback=_reported(command.callback)), []
+    """``postproc budget ...`` through the real command line."""
+    from postproc.cli import main
 
     def invoke(*args: str):
-        return CliRunner().invoke(target, prefix + list(args), catch_exceptions=False)
+        return CliRunner().invoke(main, ["budget", *args], catch_exceptions=False)
 
     return invoke
 

@@ -13,7 +13,6 @@ from conftest import SAMPLES
 from interpret import moves
 from postproc.diagnostics import Reporter, SafetyError
 from postproc.geometry import Arc
-from postproc.motion import ARC
 from postproc.program import interpret_source
 from postproc.rewrite import Rewriter, Settings
 from postproc.segmenter import chord_minimum

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..diagnostics import Location, MeasurementError
+from ..diagnostics import Location
 from .csvfile import Table, read_table
 
 PROBE_MAGIC = "# postproc probe 1"
