@@ -109,6 +109,11 @@ class Compensator:
         """The displacement wanted at ``piece.points``: (n, 2) radius mm, or None."""
         raise NotImplementedError
 
+    def prologue(self) -> list[str]:
+        """Blocks (text, no line ending) to write at the start of the program, after the
+        provenance comments: a G10 offset setting, say. They must parse and interpret."""
+        return []
+
     def model(self) -> dict[str, Any]:
         """The fitted model as JSON-able data (``postproc fit``)."""
         raise NotImplementedError(f"{self.name} cannot save its model")

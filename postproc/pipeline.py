@@ -143,10 +143,27 @@ class Pipeline:
             eol = _eol(lead[0]) if lead else "\n"
             spool.write("".join(lead).encode("utf-8", "surrogateescape"))
             spool.write(self._provenance(rewriter, eol).encode())
+            spool.write(self._prologue(source, eol).encode())
             body.seek(0)
             while chunk := body.read(1 << 20):
                 spool.write(chunk)
         return rewriter
+
+    def _prologue(self, source: Source, eol: str) -> str:
+        """The compensators' own opening blocks, each read back before it is written."""
+        from .interpreter import Interpreter
+        from .reader import read_blocks
+
+        lines: list[str] = []
+        for compensator in self.compensators:
+            for text in self._guarded(compensator, "prologue", compensator.prologue):
+                try:
+                    for _ in Interpreter(self.profile, Reporter(), "<prologue>").run(read_blocks([(text, "\n")], "<prologue>")):
+                        pass
+                except PostprocError as exc:
+                    raise PluginError(compensator.name, f"its opening block {text!r} does not read: {exc.message}") from None
+                lines.append(text + eol)
+        return "".join(lines)
 
     def _refuse_twice(self, source: Source) -> None:
         for number, (text, _) in enumerate(source.lines(), 1):

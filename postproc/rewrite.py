@@ -43,12 +43,17 @@ JOIN = 1e-9  #: nominal points closer than this are the same point
 
 @dataclass(frozen=True)
 class Piece:
-    """The part of a move between axis reversals: what a compensator corrects."""
+    """The part of a move between axis reversals: what a compensator corrects.
+
+    ``x_direction`` and ``z_direction`` say which way each axis travels over the piece
+    (+1, -1). An axis that does not move in the piece keeps the direction it last
+    travelled in, which is where its backlash leaves it; 0 when that is not known.
+    """
 
     move: Move
     segment: Line | Arc
     t: np.ndarray  #: sample parameters on ``segment``
-    x_direction: int  #: sign of X travel over the piece (0: no X travel)
+    x_direction: int
     z_direction: int
 
     @property
@@ -56,8 +61,16 @@ class Piece:
         return self.segment.point_at(self.t)
 
 
-def pieces(move: Move) -> list[Piece]:
-    """A move split where an axis reverses, so direction-dependent corrections act per side."""
+def _travel(part: Line | Arc, at: float = 0.5) -> tuple[int, int]:
+    tangent = part.tangent_at(at)
+    return int(np.sign(round(float(tangent[0]), 12))), int(np.sign(round(float(tangent[1]), 12)))
+
+
+def pieces(move: Move, last: tuple[int, int] = (0, 0)) -> list[Piece]:
+    """A move split where an axis reverses, so direction-dependent corrections act per side.
+
+    ``last`` is the direction each axis last travelled in before the move.
+    """
     segment = segment_of(move)
     if isinstance(segment, Line):
         bounds = [0.0, 1.0]
@@ -69,10 +82,19 @@ def pieces(move: Move) -> list[Piece]:
             part = segment
         else:
             part = Arc(segment.xc, segment.zc, segment.r, segment.theta0 + a * segment.sweep, (b - a) * segment.sweep)
-        tangent = part.tangent_at(0.5)
-        directions = [int(np.sign(round(float(c), 12))) for c in tangent]
-        result.append(Piece(move, part, sample_params(part), directions[0], directions[1]))
+        x, z = _travel(part)
+        last = (x or last[0], z or last[1])
+        result.append(Piece(move, part, sample_params(part), *last))
     return result
+
+
+def travel_after(move: Move, last: tuple[int, int]) -> tuple[int, int]:
+    """The direction each axis last travelled in, once ``move`` has run."""
+    if not move.known or move.kind not in (LINE, ARC, RAPID) or not move.exact:
+        return (0, 0) if not move.known else last
+    segment = segment_of(move)
+    x, z = _travel(segment, 1.0) if segment.length > 0 else (0, 0)
+    return (x or last[0], z or last[1])
 
 
 Corrector = Callable[[Piece], "np.ndarray | None"]
@@ -146,6 +168,7 @@ class Rewriter:
         self.emitted = 0  #: blocks written for them
         self.worst = 0.0  #: largest measured deviation from a target, mm
         self._contour: tuple[list[Cut], list[Cut]] | None = None
+        self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
 
     # ------------------------------------------------------------------ streaming
 
@@ -159,7 +182,11 @@ class Rewriter:
                 first = False
             entry = Entry(step)
             if entry.motion:
-                entry.edits = [self._edit(step, move) for move in step.moves]
+                entry.edits = []
+                for move in step.moves:
+                    entry.edits.append(self._edit(step, move))
+                    if move.role in (RUN, CONTOUR, CORNER):
+                        self._last_travel = travel_after(move, self._last_travel)
                 if previous is not None:
                     self._join(previous, entry)
                 yield from self._flush(window)
@@ -188,7 +215,7 @@ class Rewriter:
     def _edit(self, step: Step, move: Move) -> Edit | None:
         if not self._candidate(step, move):
             return None
-        parts = pieces(move)
+        parts = pieces(move, self._last_travel)
         shifts = [self.corrector(piece) for piece in parts]
         if all(shift is None for shift in shifts):
             return None
