@@ -157,6 +157,30 @@ def _identity(name: str, destination: str, profile: profiles.MachineProfile, rep
 
 
 @main.command()
+@click.option("--plugin", "plugins", multiple=True, required=True, metavar="NAME", help="The compensator to fit.")
+@click.option("--ballbar", multiple=True, metavar="FILE", help="A ballbar trace.")
+@click.option("--probe", multiple=True, metavar="FILE", help="Probe points.")
+@click.option("--calibration", metavar="FILE", help="A probe calibration on an artifact.")
+@click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
+@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
+@click.option("--note", metavar="TEXT", help="The machine's state, e.g. 'warmed up 2 h'.")
+@click.option("--force", is_flag=True, help="Use measurements that failed a check (the datum check).")
+@click.option("-o", "--output", "output", metavar="FILE", default="-", help="Where the model goes (JSON).")
+@_reported
+def fit(plugins, ballbar, probe, calibration, options, machine, note, force, output):
+    """Fit a compensator's model from measurements and save it (apply it with compensate --model)."""
+    from .models import dumps
+    from .output import write_atomically
+    from .pipeline import Pipeline, Request
+
+    reporter = Reporter(sys.stderr)
+    request = Request(list(plugins), list(ballbar), list(probe), calibration, None, list(options), force=force)
+    pipeline = Pipeline(request, _profile(machine), reporter)
+    write_atomically(output, dumps(pipeline.saved_model(note)).encode())
+    reporter.close()
+
+
+@main.command()
 @click.argument("input", default="-")
 @click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
 @_reported

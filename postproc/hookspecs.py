@@ -22,7 +22,7 @@ hookimpl = pluggy.HookimplMarker("postproc")
 
 
 @hookspec
-def postproc_compensators() -> "list[type[Compensator]]":
+def postproc_compensators() -> list[type[Compensator]]:
     """The compensator classes this plugin provides.
 
     Each class is a :class:`postproc.compensator.Compensator` with a unique ``name`` (the
@@ -35,7 +35,7 @@ def postproc_compensators() -> "list[type[Compensator]]":
 
 
 @hookspec
-def postproc_measurement_readers() -> "list[MeasurementReader]":
+def postproc_measurement_readers() -> list[MeasurementReader]:
     """Readers of measurement files, for formats an instrument exports.
 
     A :class:`postproc.measurements.registry.MeasurementReader` names the ``kind`` it reads

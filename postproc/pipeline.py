@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from . import __version__
+from . import models
 from . import plugins as registry
 from .compensator import Compensator, Context, Measurements, parse_options
 from .diagnostics import Location, OptionError, PluginError, PostprocError, Reporter, SafetyError, UsageError
@@ -68,13 +69,45 @@ class Pipeline:
         if request.max_correction is not None and not request.max_correction > 0:
             raise OptionError(f"--max-correction {request.max_correction}: must be positive")
         self.max_correction = request.max_correction or profile.max_correction
+        context = Context(profile, self.reporter, request.tolerance or profile.default_tolerance(False), request.force)
+        self.inputs: list[tuple[str, str]] = []  # (file, sha256) for the provenance
+        if request.model:
+            self._load(request.model, context)
+            return
         installed = registry.select(request.plugins)
         self.installed = installed
-        settings = parse_options(request.options, [item.cls for item in installed])
-        context = Context(profile, self.reporter, request.tolerance or profile.default_tolerance(False), request.force)
-        self.compensators: list[Compensator] = [item.cls(context, settings[item.cls.name]) for item in installed]
-        self.inputs: list[tuple[str, str]] = []  # (file, sha256) for the provenance
+        self.settings = parse_options(request.options, [item.cls for item in installed])
+        self.compensators: list[Compensator] = [item.cls(context, self.settings[item.cls.name]) for item in installed]
         self._fit()
+
+    def _load(self, path: str, context: Context) -> None:
+        """A saved model instead of measurements: the compensator it names, given its model."""
+        request = self.request
+        if request.plugins or request.ballbar or request.probe or request.calibration or request.options:
+            raise UsageError("--model carries its compensator, measurements and options: give none of them with it")
+        data = models.read(path)
+        models.check_age(data, path, self.profile.name, self.profile.model_max_age_days, self.reporter)
+        installed = registry.select([data["plugin"]])
+        item = installed[0]
+        if data.get("plugin_version") != item.version:
+            self.reporter.warn(f"the model was made by {item.cls.name} {data.get('plugin_version')}; "
+                               f"{item.version} is installed", Location(path))
+        compensator = item.cls(context, dict(data["options"]))
+        self._guarded(compensator, "load", compensator.load, data["model"])
+        self.installed, self.compensators = installed, [compensator]
+        self.settings = {item.cls.name: dict(data["options"])}
+        self.inputs = [(entry["file"], entry["sha256"]) for entry in data.get("inputs", [])]
+        self.inputs.append((path, data["sha256"]))
+
+    def saved_model(self, note: str | None = None) -> dict[str, Any]:
+        """The fitted model of the one compensator, with its provenance, for ``postproc fit``."""
+        if len(self.compensators) != 1:
+            raise UsageError("a model is fitted for one compensator: give one --plugin")
+        compensator, item = self.compensators[0], self.installed[0]
+        model = self._guarded(compensator, "model", compensator.model)
+        paths = [path for path, _ in self.inputs]
+        return models.build(compensator.name, item.version, model, self.inputs, self.profile.name,
+                            self.settings[compensator.name], note, models.measured_at(paths))
 
     # ------------------------------------------------------------------ measurements
 

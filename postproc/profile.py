@@ -43,6 +43,7 @@ class MachineProfile:
     z_limits: tuple[float, float] = (-450.0, 450.0)  #: soft limits of Z travel
     tolerance: float | None = None  #: default tolerance; None: formats.md's rule
     max_correction: float = 0.1  #: largest correction allowed anywhere
+    model_max_age_days: float = 30.0  #: a saved model measured longer ago than this gets a warning
     output_decimals_mm: int = 3  #: decimals written for mm values
     output_decimals_inch: int = 4  #: decimals written for inch values
     spindle_speed_fluctuation: bool = False

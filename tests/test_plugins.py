@@ -1,0 +1,185 @@
+"""The plugin system: discovery, order, options, routing, faults, and a third-party plugin."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import REPO, SAMPLES
+from postproc import hookspecs
+from postproc import plugins as registry
+from postproc.compensator import Compensator
+
+HEMISHELL = str(SAMPLES / "programs" / "hemishell.nc")
+CCW, CW = (str(SAMPLES / "ballbar" / f"v40r-100-{d}.csv") for d in ("ccw", "cw"))
+BUILT_IN = {"ballbar-inverse", "iterative"}
+
+
+def test_plugins_lists_name_version_and_summary(run):
+    result = run("plugins")
+    assert result.exit_code == 0 and result.stderr == ""
+    lines = result.stdout.splitlines()
+    names = [line.split()[0] for line in lines]
+    assert BUILT_IN <= set(names) and names == sorted(names)
+    for line in lines:
+        assert re.match(r"^\S+ \d+\.\d+\.\d+ \S.+$", line), line
+
+
+def test_built_in_compensators_come_through_entry_points():
+    installed = registry.compensators()
+    for name in BUILT_IN:
+        assert installed[name].cls.__module__.startswith("postproc_plugins.")
+        assert installed[name].distribution == "postproc"
+
+
+def test_compensators_run_in_the_order_given(run):
+    result = run("compensate", HEMISHELL, "--plugin", "iterative", "--plugin", "ballbar-inverse",
+                 "--ballbar", CCW, "--ballbar", CW, "--option", "radius-mapping=relative")
+    assert result.exit_code == 0, result.stderr
+    plugins = [line for line in result.stdout.splitlines() if line.startswith("(PLUGIN")]
+    assert plugins == ["(PLUGIN ITERATIVE 0.1.0)", "(PLUGIN BALLBAR-INVERSE 0.1.0)"]
+
+
+def test_option_scoping(run):
+    base = ["compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", CCW, "--ballbar", CW]
+    assert run(*base, "--option", "ballbar-inverse.radius-mapping=relative").exit_code == 0
+    unknown = run(*base, "--option", "radius-mapping=relative", "--option", "stock=1")
+    assert unknown.exit_code == 3 and "no selected compensator declares 'stock'" in unknown.stderr
+    other = run(*base, "--option", "iterative.selective=0.001")
+    assert other.exit_code == 3 and "'iterative' is not a selected compensator" in other.stderr
+    bad = run(*base, "--option", "radius-mapping=sideways")
+    assert bad.exit_code == 3 and "expected one of absolute, relative, center-offset" in bad.stderr
+    for result in (unknown, other, bad):
+        assert result.stdout == ""
+
+
+def test_measurements_go_only_where_they_are_taken(run, tmp_path):
+    probe = tmp_path / "p.csv"
+    probe.write_text("# postproc probe 1\n# stylus_radius_mm = 3\nx_mm,z_mm,approach_x,approach_z\n1,60,0,-1\n")
+    result = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", CCW, "--probe", str(probe))
+    assert result.exit_code == 2 and "no selected compensator (ballbar-inverse) takes probe" in result.stderr
+    missing = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse")
+    assert missing.exit_code == 2 and "needs --ballbar" in missing.stderr
+
+
+def test_unknown_plugin(run):
+    result = run("compensate", HEMISHELL, "--plugin", "telepathy")
+    assert result.exit_code == 3 and "no compensator of that name is installed" in result.stderr
+
+
+class _Raises(Compensator):
+    """Raises while correcting."""
+
+    name = "test-raises"
+
+    def fit(self, measurements):
+        pass
+
+    def correct(self, piece):
+        raise ZeroDivisionError("oops")
+
+
+class _Nonsense(_Raises):
+    """Returns a correction of the wrong shape."""
+
+    name = "test-nonsense"
+
+    def correct(self, piece):
+        return np.zeros((3, 3))
+
+
+class _Test:
+    @hookspecs.hookimpl
+    def postproc_compensators(self):
+        return [_Raises, _Nonsense]
+
+
+@pytest.fixture
+def faulty():
+    manager = registry.manager()
+    plugin = _Test()
+    manager.register(plugin, name="faulty-test-plugin")
+    yield
+    manager.unregister(plugin)
+
+
+@pytest.mark.parametrize("name, words", [("test-raises", "correct failed: ZeroDivisionError: oops"),
+                                         ("test-nonsense", "returned a correction of shape (3, 3)")])
+def test_a_faulty_plugin_is_named_and_nothing_is_written(run, faulty, tmp_path, name, words):
+    target = tmp_path / "out.nc"
+    result = run("compensate", HEMISHELL, "--plugin", name, "-o", str(target))
+    assert result.exit_code == 5
+    assert f"plugin '{name}': {words}" in result.stderr
+    assert not target.exists() and list(tmp_path.iterdir()) == []
+
+
+@pytest.fixture(scope="module")
+def shop_plugin(tmp_path_factory) -> Path:
+    """The sample third-party plugin, installed by pip into a directory of its own."""
+    target = tmp_path_factory.mktemp("site")
+    subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps",
+                    "--target", str(target), str(SAMPLES / "plugins" / "postproc-shop-example")], check=True)
+    return target
+
+
+def _postproc(site: Path, *args: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(site)}
+    return subprocess.run([sys.executable, "-c", "from postproc.cli import main; main()", *args],
+                          capture_output=True, text=True, env=env, cwd=REPO)
+
+
+def test_a_third_party_plugin_appears_and_runs(shop_plugin, tmp_path):
+    listed = _postproc(shop_plugin, "plugins")
+    assert listed.returncode == 0
+    assert "radial-allowance 1.0.0 Leave a finishing allowance on every feed arc." in listed.stdout.splitlines()
+    result = _postproc(shop_plugin, "compensate", HEMISHELL, "--plugin", "radial-allowance", "--option", "allowance=0.05")
+    assert result.returncode == 0, result.stderr
+    assert "G03 X114.4 Z0. I0. K-57.2" in result.stdout
+
+
+def test_a_third_party_reader_reads_its_instrument_export(shop_plugin, tmp_path):
+    export = tmp_path / "trace.shopbar"
+    rows = "".join(f"{a};5\n" for a in range(0, 360, 2))
+    export.write_text(f"SHOPBAR EXPORT;RADIUS=57.15;DIR=CCW\nANGLE;DEV_UM\n{rows}")
+    result = _postproc(shop_plugin, "compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", str(export))
+    assert result.returncode == 0, result.stderr
+    assert "G03 X114.29 Z0. I0. K-57.145" in result.stdout
+
+
+class _Reader:
+    """A reader registered in-process through postproc_measurement_readers."""
+
+    @hookspecs.hookimpl
+    def postproc_measurement_readers(self):
+        from postproc.measurements.ballbar import read_ballbar
+        from postproc.measurements.registry import MeasurementReader
+
+        def read(path, context):
+            with open(path) as handle:
+                text = handle.read().replace("# flipped ballbar", "# postproc ballbar 1", 1)
+            flipped = Path(path).with_suffix(".converted.csv")
+            flipped.write_text(text)
+            return read_ballbar(str(flipped), context.reporter)
+
+        return [MeasurementReader("ballbar", "flipped", lambda path: open(path).readline().startswith("# flipped"), read)]
+
+
+def test_postproc_measurement_readers_come_before_the_built_in_ones(run, tmp_path):
+    manager = registry.manager()
+    plugin = _Reader()
+    manager.register(plugin, name="reader-test-plugin")
+    try:
+        trace = tmp_path / "t.csv"
+        rows = "".join(f"{a},0.005\n" for a in range(0, 360, 2))
+        trace.write_text(f"# flipped ballbar\n# radius_mm = 57.15\n# direction = ccw\n# centered = true\nangle_deg,deviation_mm\n{rows}")
+        assert [reader.name for reader in registry.readers()][0] == "flipped"
+        result = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", str(trace))
+        assert result.exit_code == 0 and "G03 X114.29 Z0. I0. K-57.145" in result.stdout
+    finally:
+        manager.unregister(plugin)
