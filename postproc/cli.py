@@ -15,7 +15,7 @@ import click
 
 from . import __version__
 from . import profile as profiles
-from .diagnostics import EXIT_INTERNAL, PostprocError, Reporter, UsageError
+from .diagnostics import EXIT_INTERNAL, EXIT_WOULD_CHANGE, PostprocError, Reporter, UsageError
 from .output import STDOUT, Spool
 from .source import Source
 
@@ -98,62 +98,86 @@ def main() -> None:
 @click.option("--tolerance", type=float, metavar="MM", help="Largest deviation of the emitted path.")
 @click.option("--mode", type=click.Choice(["auto", "arc", "line"]), default="auto", show_default=True)
 @click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
+@click.option("--region", "regions", multiple=True, metavar="N100-N200|L10-L50|T01",
+              help="Compensate only these blocks (several: their union).")
 @click.option("--max-correction", type=float, metavar="MM", help="Refuse corrections larger than this.")
-@click.option("--force", is_flag=True, help="Compensate a program postproc compensated before.")
+@click.option("--force", is_flag=True, help="Compensate a program compensated before; use a failed datum check.")
+@click.option("--diff", is_flag=True, help="Write a unified diff of the change to stdout instead of the program.")
+@click.option("--check", "check_only", is_flag=True, help="Write nothing; exit 1 if the program would change.")
+@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True, help="Programs compensated at once.")
 @_reported
 def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, model, machine, tolerance, mode,
-               options, max_correction, force):
+               options, regions, max_correction, force, diff, check_only, jobs):
     """Compensate part programs; with no compensator, write the input back byte for byte."""
+    from .api import Pipeline
+
     inputs = inputs or ("-",)
     if output and out_dir:
         raise UsageError("give -o or --out-dir, not both")
-    if len(inputs) > 1 and not out_dir:
-        raise UsageError("several inputs need --out-dir")
+    if len(inputs) > 1 and not (out_dir or diff or check_only):
+        raise UsageError("several inputs need --out-dir (or --diff or --check)")
     if (ballbar or probe or calibration) and not plugins:
         raise UsageError("measurements were given but no compensator (--plugin) to use them")
     if options and not plugins and not model:
         raise UsageError("--option was given but no compensator (--plugin) to take it")
-    profile = _profile(machine)
+    if (diff or check_only) and (output or out_dir):
+        raise UsageError("--diff and --check write no program: give no -o or --out-dir")
     reporter = Reporter(sys.stderr)
-    pipeline = None
-    if plugins or model:
-        from .pipeline import Pipeline, Request
+    pipeline = Pipeline(plugins, ballbar, probe, calibration, model, options, tolerance, mode, _profile(machine),
+                        max_correction, force, regions, reporter)
+    if diff or check_only:
+        changed = [name for name in inputs if _review(pipeline, name, diff)]
+        reporter.close()
+        if check_only and changed:
+            for name in changed:
+                click.echo(f"{name}: would be changed", err=True)
+            sys.exit(EXIT_WOULD_CHANGE)
+        return
+    if out_dir:
+        from . import batch
 
-        request = Request(list(plugins), list(ballbar), list(probe), calibration, model, list(options), tolerance,
-                          mode, max_correction, force)
-        pipeline = Pipeline(request, profile, reporter)
-    for name in inputs:
-        destination = os.path.join(out_dir, os.path.basename(name)) if out_dir else (output or STDOUT)
-        if pipeline is None:
-            _identity(name, destination, profile, reporter)
-        else:
-            _compensate(pipeline, name, destination)
+        jobs_list = [(name, os.path.join(out_dir, os.path.basename(name))) for name in inputs]
+        code = batch.run(jobs_list, pipeline, jobs)
+        reporter.close()
+        if code:
+            sys.exit(code)
+        return
+    summary = pipeline.compensate_file(inputs[0], output or STDOUT)
     reporter.close()
-
-
-def _compensate(pipeline, name: str, destination: str) -> None:
-    with Source(name) as source, Spool(destination) as spool:
-        rewriter = pipeline.run(source, spool)
-        spool.commit()
+    if pipeline.core is not None:
         click.echo(
-            f"{source.name}: {rewriter.replaced} blocks replaced by {rewriter.emitted}; largest correction "
-            f"{rewriter.largest * 1000:.2f} um; largest deviation from the intended path {rewriter.worst * 1000:.3f} um",
+            f"{summary.name}: {summary.replaced} blocks replaced by {summary.emitted}; largest correction "
+            f"{summary.largest_correction * 1000:.2f} um; largest deviation from the intended path "
+            f"{summary.largest_deviation * 1000:.3f} um",
             err=True,
         )
 
 
-def _identity(name: str, destination: str, profile: profiles.MachineProfile, reporter: Reporter) -> None:
-    """Parse and interpret the program, then write it back unchanged."""
-    from .program import interpret_source
+def _review(pipeline, name: str, diff: bool) -> bool:
+    """Compensate without writing; print a unified diff if asked. Whether the program changes."""
+    import difflib
+    import tempfile
 
     with Source(name) as source:
-        for _ in interpret_source(source, profile, reporter):
-            pass
-        with Spool(destination) as spool:
-            with source.open_binary() as raw:
-                while chunk := raw.read(1 << 20):
-                    spool.write(chunk)
-            spool.commit()
+        original = source.read_bytes()
+        handle, path = tempfile.mkstemp(prefix="postproc-review-", suffix=".nc")
+        os.close(handle)
+        try:
+            with Spool(path) as spool:
+                pipeline.compensate_source(source, spool)
+                spool.commit()
+            with open(path, "rb") as result:
+                changed_bytes = result.read()
+        finally:
+            os.unlink(path)
+        if changed_bytes == original and not diff:
+            return False
+        before = original.decode("utf-8", "surrogateescape").splitlines(keepends=True)
+        after = changed_bytes.decode("utf-8", "surrogateescape").splitlines(keepends=True)
+        if diff:
+            for line in difflib.unified_diff(before, after, source.name, f"{source.name} (compensated)"):
+                sys.stdout.write(line if line.endswith("\n") else line + "\n")
+        return changed_bytes != original
 
 
 @main.command()
@@ -203,18 +227,60 @@ def check(input, machine):
 @click.argument("input", default="-")
 @click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
 @click.option("-o", "--output", "output", metavar="FILE", help="Write the CSV here instead of stdout.")
+@click.option("--plot", metavar="FILE", help="Draw the path (and the compensated one) to a .png or .svg.")
+@click.option("--plugin", "plugins", multiple=True, metavar="NAME", help="With --plot: a compensator to draw.")
+@click.option("--ballbar", multiple=True, metavar="FILE")
+@click.option("--probe", multiple=True, metavar="FILE")
+@click.option("--calibration", metavar="FILE")
+@click.option("--model", metavar="FILE")
+@click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
+@click.option("--tolerance", type=float, metavar="MM")
+@click.option("--mode", type=click.Choice(["auto", "arc", "line"]), default="auto")
 @_reported
-def path(input, machine, output):
-    """The interpreted tool path as CSV, one row per motion."""
+def path(input, machine, output, plot, plugins, ballbar, probe, calibration, model, options, tolerance, mode):
+    """The interpreted tool path as CSV, one row per motion; --plot draws it."""
     from .pathcsv import path_rows
     from .program import interpret_source
 
+    profile = _profile(machine)
     reporter = Reporter(sys.stderr)
-    with Source(input) as source, Spool(output or STDOUT) as spool:
-        for line in path_rows(interpret_source(source, _profile(machine), reporter)):
-            spool.write(line.encode() + b"\n")
-        spool.commit()
+    if (plugins or model) and not plot:
+        raise UsageError("compensators here only draw the compensated path: give --plot")
+    with Source(input) as source:
+        with Spool(output or STDOUT) as spool:
+            for line in path_rows(interpret_source(source, profile, reporter)):
+                spool.write(line.encode() + b"\n")
+            spool.commit()
+        if plot:
+            from .api import Pipeline
+            from .pathplot import plot_paths
+
+            nominal = [m for s in interpret_source(source, profile, Reporter()) for m in s.moves if m.role != "contour"]
+            compensated = None
+            if plugins or model:
+                pipeline = Pipeline(plugins, ballbar, probe, calibration, model, options, tolerance, mode, profile,
+                                    reporter=reporter)
+                text = pipeline.compensate_text(source.read_bytes().decode("utf-8", "surrogateescape"), source.name)
+                with Source.from_text(text, source.name) as changed:
+                    compensated = [m for s in interpret_source(changed, profile, Reporter()) for m in s.moves
+                                   if m.role != "contour"]
+            plot_paths(nominal, compensated, plot, source.name)
     reporter.close()
+
+
+@main.group()
+def profile():
+    """Machine profiles."""
+
+
+@profile.command("show")
+@click.option("--machine", metavar="FILE", help="A machine profile (TOML); without it, the embedded default.")
+@_reported
+def profile_show(machine):
+    """Print the machine profile in force, as TOML."""
+    from .profile import to_toml
+
+    click.echo(to_toml(_profile(machine)), nl=False)
 
 
 @main.command("plugins")

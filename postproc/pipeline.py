@@ -28,6 +28,7 @@ from .motion import ARC, LINE
 from .output import Spool
 from .profile import DEFAULT, MachineProfile
 from .program import interpret_source
+from .region import Region
 from .rewrite import Piece, Rewriter, Settings
 from .source import Source
 
@@ -50,6 +51,7 @@ class Request:
     mode: str = "auto"
     max_correction: float | None = None
     force: bool = False
+    regions: list[str] = field(default_factory=list)
 
 
 def digest(path: str) -> str:
@@ -162,10 +164,13 @@ class Pipeline:
             system=self.profile.gcode_system,
             min_block_time_s=self.profile.min_block_time_s,
             max_spindle_rpm=self.profile.max_spindle_rpm,
+            x_limits=self.profile.x_limits,
+            z_limits=self.profile.z_limits,
             default_tolerance=self.profile.default_tolerance,
         )
         steps = interpret_source(source, self.profile, self.reporter)
-        rewriter = Rewriter(steps, self._corrector(source), settings, self.reporter, source.name)
+        region = Region(self.request.regions)
+        rewriter = Rewriter(steps, self._corrector(source), settings, self.reporter, source.name, selects=region)
         lead: list[str] = []  # the tape mark and program number go before the provenance block
         with tempfile.SpooledTemporaryFile(max_size=8 << 20) as body:
             for text in rewriter.run():

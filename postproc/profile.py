@@ -39,8 +39,8 @@ class MachineProfile:
     max_arc_radius: float = 5000.0  #: an arc above this radius is emitted as lines
     min_block_time_s: float = 0.001  #: shortest block the look-ahead digests at full feed
     max_spindle_rpm: float = 4000.0  #: the spindle's top speed (bounds G96 near the axis)
-    x_limits: tuple[float, float] = (-5.0, 265.0)  #: soft limits of X travel, radius mm
-    z_limits: tuple[float, float] = (-450.0, 450.0)  #: soft limits of Z travel
+    x_limits: tuple[float, float] | None = None  #: soft limits of x (radius mm, work coordinates); None: not set
+    z_limits: tuple[float, float] | None = None  #: soft limits of z (mm, work coordinates)
     tolerance: float | None = None  #: default tolerance; None: formats.md's rule
     max_correction: float = 0.1  #: largest correction allowed anywhere
     model_max_age_days: float = 30.0  #: a saved model measured longer ago than this gets a warning
@@ -109,6 +109,8 @@ def from_mapping(data: dict[str, Any], origin: str = "<profile>") -> MachineProf
 
 def _checked(name: str, value: Any, origin: str) -> Any:
     default = getattr(DEFAULT, name)
+    if name in ("x_limits", "z_limits"):
+        default = (0.0, 0.0)
     if isinstance(default, tuple):
         if not (isinstance(value, list) and len(value) == 2 and all(_is_number(v) for v in value)):
             raise OptionError(f"{name} must be a list of two numbers", Location(origin))
@@ -135,3 +137,22 @@ def _checked(name: str, value: Any, origin: str) -> Any:
 
 def _is_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def to_toml(profile: MachineProfile) -> str:
+    """The profile as TOML that :func:`load` reads back (unset limits are left out)."""
+    lines = [f"# machine profile {profile.name!r}"]
+    for name in _FIELDS:
+        value = getattr(profile, name)
+        if value is None:
+            continue
+        if isinstance(value, bool):
+            text = "true" if value else "false"
+        elif isinstance(value, str):
+            text = '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        elif isinstance(value, tuple):
+            text = f"[{value[0]!r}, {value[1]!r}]"
+        else:
+            text = repr(value)
+        lines.append(f"{name} = {text}")
+    return "\n".join(lines) + "\n"

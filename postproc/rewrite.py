@@ -147,6 +147,8 @@ class Settings:
     system: str = "A"
     min_block_time_s: float = 0.001
     max_spindle_rpm: float = 4000.0
+    x_limits: tuple[float, float] | None = None
+    z_limits: tuple[float, float] | None = None
     default_tolerance: Callable[[bool], float] = lambda inch: 0.001
 
 
@@ -387,6 +389,7 @@ class Rewriter:
             yield block.raw
             return
         cuts = self._cuts(entry)
+        self._within_limits(step, cuts)
         writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
         lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
         self._self_check(entry, lines, cuts)
@@ -483,6 +486,20 @@ class Rewriter:
                 f"blocks merged to keep them longer than {shortest * 1000:.1f} um (minimum block time at this feed): "
                 f"tolerance widened to {deviation * 1000:.2f} um here", where)
         return Plan(cuts, deviation, result.method + "+merged")
+
+    def _within_limits(self, step: Step, cuts: list[Cut]) -> None:
+        """A compensated move must stay inside the machine's soft limits (the profile's)."""
+        for axis, limits, name in ((0, self.settings.x_limits, "x"), (1, self.settings.z_limits, "z")):
+            if limits is None:
+                continue
+            values = np.concatenate([cut.sample(1.0)[:, axis] for cut in cuts])
+            low, high = float(values.min()), float(values.max())
+            if low < limits[0] or high > limits[1]:
+                beyond = low if low < limits[0] else high
+                raise SafetyError(
+                    f"the compensated move reaches {name} = {beyond:.4f} mm, beyond the soft limit "
+                    f"{limits[0]:g} .. {limits[1]:g} mm of the machine profile",
+                    Location(self.file, step.block.line, None, step.block.text))
 
     # ------------------------------------------------------------------ cycle contours
 

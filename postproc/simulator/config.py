@@ -228,7 +228,8 @@ def from_table(table: Any, profile: profiles.MachineProfile = profiles.DEFAULT, 
     if not isinstance(table, dict):
         raise OptionError("'simulation' must be a table", Location(origin))
     values = _fields(Simulation, table, "simulation", origin, tables=TABLES)
-    spans = {"x": profile.x_limits, "z": profile.z_limits}
+    # Without soft limits in the profile, the V40R's travel (methods.md 1) spans the bow.
+    spans = {"x": profile.x_limits or (-5.0, 265.0), "z": profile.z_limits or (-450.0, 450.0)}
     for name in ("x", "z"):
         axis = values.get(name, Axis())
         if axis.straightness_span_mm is None:

@@ -1,0 +1,118 @@
+"""The Python API: compensation from a script, a CAM system or a shop's own tools.
+
+>>> import postproc
+>>> text = open("samples/programs/hemishell.nc").read()
+>>> compensated = postproc.compensate_text(
+...     text, plugins=["parametric"],
+...     ballbar=["samples/ballbar/v40r-100-ccw.csv", "samples/ballbar/v40r-100-cw.csv"])
+
+For many programs, build the pipeline once (the measurements are read and fitted once):
+
+>>> pipeline = postproc.Pipeline(plugins=["parametric"], ballbar=[...])
+>>> for path in programs:
+...     pipeline.compensate_file(path, "out/" + path.name)
+
+Errors are :class:`postproc.diagnostics.PostprocError` subclasses with the same messages and
+exit codes as the command line; warnings are collected in ``pipeline.warnings``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+from . import profile as profiles
+from .diagnostics import Diagnostic, Reporter
+from .output import Spool
+from .source import Source
+
+
+@dataclass(frozen=True)
+class Summary:
+    """What one compensation did."""
+
+    name: str
+    replaced: int  #: blocks replaced
+    emitted: int  #: blocks written for them
+    largest_correction: float  #: mm
+    largest_deviation: float  #: mm, from the intended path, as read back
+
+
+class Pipeline:
+    """Compensators fitted once, applied to any number of programs.
+
+    With no plugin and no model it checks programs and gives them back unchanged.
+    """
+
+    def __init__(
+        self,
+        plugins: Sequence[str] = (),
+        ballbar: Sequence[str] = (),
+        probe: Sequence[str] = (),
+        calibration: str | None = None,
+        model: str | None = None,
+        options: Sequence[str] = (),
+        tolerance: float | None = None,
+        mode: str = "auto",
+        machine: str | profiles.MachineProfile | None = None,
+        max_correction: float | None = None,
+        force: bool = False,
+        regions: Sequence[str] = (),
+        reporter: Reporter | None = None,
+    ):
+        from .pipeline import Pipeline as Core, Request
+
+        if isinstance(machine, str):
+            machine = profiles.load(machine)
+        self.profile = machine or profiles.DEFAULT
+        self.reporter = reporter or Reporter()
+        self.request = Request(list(plugins), list(ballbar), list(probe), calibration, model, list(options), tolerance,
+                               mode, max_correction, force, list(regions))
+        self.core = Core(self.request, self.profile, self.reporter) if (plugins or model) else None
+
+    @property
+    def warnings(self) -> list[Diagnostic]:
+        return self.reporter.warnings
+
+    def compensate_source(self, source: Source, spool: Spool) -> Summary:
+        """Compensate one program into a spool (committed by the caller)."""
+        if self.core is None:
+            from .program import interpret_source
+
+            for _ in interpret_source(source, self.profile, self.reporter):
+                pass
+            with source.open_binary() as raw:
+                while chunk := raw.read(1 << 20):
+                    spool.write(chunk)
+            return Summary(source.name, 0, 0, 0.0, 0.0)
+        rewriter = self.core.run(source, spool)
+        return Summary(source.name, rewriter.replaced, rewriter.emitted, rewriter.largest, rewriter.worst)
+
+    def compensate_file(self, path: str, output: str) -> Summary:
+        """Compensate the program at ``path`` into ``output`` (``-`` for stdout), atomically."""
+        with Source(path) as source, Spool(output) as spool:
+            summary = self.compensate_source(source, spool)
+            spool.commit()
+        return summary
+
+    def compensate_text(self, text: str, name: str = "<text>") -> str:
+        """Compensate a program held in a string; returns the compensated program."""
+        import os
+        import tempfile
+
+        with Source.from_text(text, name) as source:
+            handle, path = tempfile.mkstemp(prefix="postproc-", suffix=".nc")
+            os.close(handle)
+            try:
+                with Spool(path) as spool:
+                    self.compensate_source(source, spool)
+                    spool.commit()
+                with open(path, "rb") as result:
+                    return result.read().decode("utf-8", "surrogateescape")
+            finally:
+                os.unlink(path)
+
+
+def compensate_text(text: str, name: str = "<text>", **options) -> str:
+    """Compensate a program held in a string with the options of :class:`Pipeline`."""
+    return Pipeline(**options).compensate_text(text, name)

@@ -1,0 +1,82 @@
+"""Many programs at once: a process pool, one summary line per file, no partial files.
+
+Each worker fits the compensators once (from the same request) and then takes programs
+from the queue. A program that fails is reported with its error and the others are still
+written; the run exits with the most severe failure's code. On a terminal, a progress line
+on stderr counts the files done. Running a fleet of programs across machines needs nothing
+of postproc's own: split the file list over a job array or a task queue and run one
+``postproc compensate ... --out-dir`` per share (docs/user-guide.md).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+
+from .api import Pipeline
+from .diagnostics import EXIT_INTERNAL, EXIT_OK, PostprocError
+
+_pipeline: Pipeline | None = None
+
+
+@dataclass(frozen=True)
+class Outcome:
+    name: str
+    code: int  #: exit code for this file
+    line: str  #: the summary line
+    messages: tuple[str, ...]  #: warnings and errors, as printed
+
+
+def _one(job: tuple[str, str]) -> Outcome:
+    name, destination = job
+    pipeline = _pipeline
+    before = len(pipeline.reporter.warnings)
+    try:
+        summary = pipeline.compensate_file(name, destination)
+    except PostprocError as exc:
+        warnings = tuple(str(w) for w in pipeline.reporter.warnings[before:])
+        return Outcome(name, exc.exit_code, f"{name}: failed (exit {exc.exit_code})", warnings + (str(exc),))
+    except Exception as exc:  # a bug in one file must not stop the others
+        return Outcome(name, EXIT_INTERNAL, f"{name}: failed (internal error)", (f"postproc: internal error: {exc!r}",))
+    warnings = tuple(str(w) for w in pipeline.reporter.warnings[before:])
+    line = (f"{name}: ok -> {destination}: {summary.replaced} blocks replaced by {summary.emitted}, largest correction "
+            f"{summary.largest_correction * 1000:.2f} um, largest deviation {summary.largest_deviation * 1000:.3f} um")
+    return Outcome(name, EXIT_OK, line, warnings)
+
+
+def run(jobs: list[tuple[str, str]], pipeline: Pipeline, workers: int = 1) -> int:
+    """Compensate each (input, destination); returns the exit code for the whole run.
+
+    The pipeline is built (and its measurements checked) once, before any program is read;
+    forked workers inherit it.
+    """
+    global _pipeline
+    _pipeline = pipeline
+    progress = sys.stderr.isatty() and len(jobs) > 1
+    outcomes: list[Outcome] = []
+    if workers <= 1:
+        results = map(_one, jobs)
+    else:
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork"))
+        results = pool.map(_one, jobs)
+    try:
+        for done, outcome in enumerate(results, 1):
+            if progress:
+                sys.stderr.write("\r\x1b[2K")
+            for message in outcome.messages:
+                print(message, file=sys.stderr)
+            print(outcome.line, file=sys.stderr)
+            if progress and done < len(jobs):
+                sys.stderr.write(f"[{done}/{len(jobs)}] {os.path.basename(outcome.name)}")
+                sys.stderr.flush()
+            outcomes.append(outcome)
+    finally:
+        if workers > 1:
+            pool.shutdown()
+    failed = [o for o in outcomes if o.code != EXIT_OK]
+    if failed and len(jobs) > 1:
+        print(f"postproc: {len(failed)} of {len(jobs)} programs failed", file=sys.stderr)
+    return max((o.code for o in failed), default=EXIT_OK)
