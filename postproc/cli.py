@@ -63,6 +63,7 @@ class _Commands(click.Group):
     modules = {
         "ballbar": "postproc.commands.ballbar",
         "budget": "postproc.commands.budget",
+        "report": "postproc.commands.report",
         "simulate": "postproc.commands.simulate",
     }
 
@@ -292,3 +293,7 @@ def list_plugins():
     for name, item in sorted(compensators().items()):
         click.echo(f"{name} {item.version} {item.cls.summary()}")
 
+
+
+if __name__ == "__main__":
+    main()

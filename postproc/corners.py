@@ -9,7 +9,7 @@ radius tangent to both moves. The two moves are shortened to meet the inserted o
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+
 
 from .motion import ARC, CORNER, LINE, RUN, Move
 
@@ -148,7 +148,7 @@ def corner_moves(first: Move, second: Move, kind: str, size: float) -> tuple[Mov
     if not (_contains(first, *a) and _contains(second, *b)):
         raise CornerError(f"corner {kind}{size:g} is larger than the moves it joins (FANUC alarm PS0055)")
     return (
-        replace(first, x1=a[0], z1=a[1]),
-        replace(inserted, role=CORNER if first.role == RUN else first.role),
-        replace(second, x0=b[0], z0=b[1]),
+        first._replace(x1=a[0], z1=a[1]),
+        inserted._replace(role=CORNER if first.role == RUN else first.role),
+        second._replace(x0=b[0], z0=b[1]),
     )

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import re
 
-from .blocks import BLANK, BLOCK, Block, Comment, Detail, Word
+from .blocks import BLANK, BLOCK, HEADER, TAPE, Block, Comment, Detail, Word
 
 _ORDINARY = re.compile(
     r"[ \t]*"
@@ -24,26 +24,28 @@ _ORDINARY = re.compile(
 )
 _WORD = re.compile(r"([A-Z])[ \t]*([+-]?(?:\d+\.?\d*|\.\d+))")
 _WORD_SPELLING = re.compile(r"[A-Za-z][ \t]*[+-]?(?:\d+\.?\d*|\.\d+)")
+_fullmatch = _ORDINARY.fullmatch
+_EMPTY = Detail((), (), None, None)
+_findall = _WORD.findall
+
+
+_TAPE = re.compile(r"[ \t]*%[ \t]*")
+_HEADER = re.compile(r"[ \t]*[Oo][ \t]*\d+[ \t]*(?:(?P<comment>\([^()\r\n]*\))[ \t]*)?(?:(?P<eob>;)[ \t]*)?")
 
 
 def read_ordinary(text: str, line: int, eol: str) -> Block | None:
     """The block for an ordinary line, or None when the line needs the grammar."""
-    match = _ORDINARY.fullmatch(text)
+    match = _fullmatch(text)
     if match is None:
-        return None
-    label = match.group("label")
-    words = match.group("words")
-    if not words:
-        if label is None and match.group("comment") is None and match.group("eob") is None:
-            return Block(line, text, eol, BLANK, detail=_EMPTY)
-        codes = ()
+        return _program_start(text, line, eol)
+    label, words, comment, eob = match.group(2, 3, 4, 5)
+    if words:
+        codes = tuple(_findall(words if words.isupper() else words.upper()))
+    elif label is None and comment is None and eob is None:
+        return Block(line, text, eol, BLANK, None, None, (), None, _EMPTY)
     else:
-        codes = tuple(_WORD.findall(words.upper()))
-    return Block(line, text, eol, BLOCK, int(label) if label is not None else None, None, codes, None,
-                 detailer=_detail)
-
-
-_EMPTY = Detail((), (), None, None)
+        codes = ()
+    return Block(line, text, eol, BLOCK, None if label is None else int(label), None, codes, None, None, _detail)
 
 
 def _detail(text: str) -> Detail:
@@ -57,3 +59,16 @@ def _detail(text: str) -> Detail:
     label_col = match.start("n") if match.group("n") is not None else None
     eob_col = match.start("eob") if match.group("eob") else None
     return Detail(words, comments, label_col, eob_col)
+
+
+def _program_start(text: str, line: int, eol: str) -> Block | None:
+    """A ``%`` tape mark, or a program number ``O1234`` with at most a simple comment."""
+    if _TAPE.fullmatch(text):
+        return Block(line, text, eol, TAPE, None, None, (), None, _EMPTY)
+    match = _HEADER.fullmatch(text)
+    if match is None:
+        return None
+    comment = match.group("comment")
+    comments = (Comment(comment, match.start("comment")),) if comment else ()
+    eob = match.start("eob") if match.group("eob") else None
+    return Block(line, text, eol, HEADER, None, None, (), None, Detail((), comments, None, eob))

@@ -81,11 +81,29 @@ class Line:
 
 @dataclass(frozen=True, slots=True)
 class Arc:
+    """An arc about a centre; when its end radius ``r1`` differs from its start radius (within
+    the control's radius check), the radius drifts evenly with the angle, as a control runs it."""
+
     xc: float
     zc: float
-    r: float
+    r: float  #: start radius
     theta0: float  #: start angle, radians
     sweep: float  #: signed, radians: positive for G02 (theta increasing)
+    r1: float | None = None  #: end radius, when it differs from the start radius
+
+    @property
+    def end_radius(self) -> float:
+        return self.r if self.r1 is None else self.r1
+
+    def radius_at(self, t):
+        return self.r if self.r1 is None else self.r + np.asarray(t, dtype=float) * (self.r1 - self.r)
+
+    def part(self, a: float, b: float) -> "Arc":
+        """The arc from parameter a to parameter b."""
+        if self.r1 is None:
+            return Arc(self.xc, self.zc, self.r, self.theta0 + a * self.sweep, (b - a) * self.sweep)
+        return Arc(self.xc, self.zc, float(self.radius_at(a)), self.theta0 + a * self.sweep, (b - a) * self.sweep,
+                   float(self.radius_at(b)))
 
     @classmethod
     def through(cls, start, end, centre, cw: bool, full: bool = False) -> "Arc":
@@ -99,7 +117,9 @@ class Arc:
             sweep = -((theta0 - theta1) % TAU)
         if sweep == 0.0 and full:
             sweep = TAU if cw else -TAU
-        return cls(xc, zc, math.hypot(start[0] - xc, start[1] - zc), theta0, sweep)
+        r0 = math.hypot(start[0] - xc, start[1] - zc)
+        r1 = math.hypot(end[0] - xc, end[1] - zc)
+        return cls(xc, zc, r0, theta0, sweep, None if abs(r1 - r0) < 1e-12 else r1)
 
     @property
     def cw(self) -> bool:
@@ -119,15 +139,18 @@ class Arc:
 
     @property
     def end(self) -> tuple[float, float]:
-        return (self.xc + self.r * math.cos(self.theta1), self.zc + self.r * math.sin(self.theta1))
+        r = self.end_radius
+        return (self.xc + r * math.cos(self.theta1), self.zc + r * math.sin(self.theta1))
 
     @property
     def length(self) -> float:
-        return abs(self.sweep) * self.r
+        return abs(self.sweep) * (self.r + self.end_radius) / 2.0
 
     def point_at(self, t) -> np.ndarray:
-        theta = self.theta0 + np.asarray(t, dtype=float) * self.sweep
-        return np.stack([self.xc + self.r * np.cos(theta), self.zc + self.r * np.sin(theta)], axis=-1)
+        t = np.asarray(t, dtype=float)
+        theta = self.theta0 + t * self.sweep
+        r = self.radius_at(t)
+        return np.stack([self.xc + r * np.cos(theta), self.zc + r * np.sin(theta)], axis=-1)
 
     def tangent_at(self, t) -> np.ndarray:
         theta = self.theta0 + np.asarray(t, dtype=float) * self.sweep
@@ -176,7 +199,7 @@ class Arc:
         return sorted(set(round(t, 12) for t in found))
 
     def reversed(self) -> "Arc":
-        return Arc(self.xc, self.zc, self.r, self.theta1, -self.sweep)
+        return Arc(self.xc, self.zc, self.end_radius, self.theta1, -self.sweep, None if self.r1 is None else self.r)
 
 
 Segment = Line | Arc

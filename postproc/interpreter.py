@@ -35,6 +35,15 @@ from .source import LabelIndex
 
 INCH = 25.4
 
+# The fast path: the spellings of G00-G03 it takes, the letters it handles.
+_FAST_MOTION = {spelling: mode for mode, spellings in ((0, ("0", "00", "000")), (10, ("1", "01", "001")),
+                                                     (20, ("2", "02", "002")), (30, ("3", "03", "003")))
+                for spelling in spellings}
+_FAST_MODES = frozenset((0, 10, 20, 30))
+_FAST_LETTERS = frozenset("XZUWIKRFS")
+_FAST_LENGTHS = frozenset("XZUWIKR")
+_FLOW_M = frozenset(("2", "02", "002", "30", "030", "98", "098", "99", "099"))
+
 #: Addresses whose plain numbers are lengths: without a decimal point they count least
 #: input increments (unless calculator-type input is set).
 _LENGTH_ADDRESSES = frozenset("XZUWIKR") | {",C", ",R"}
@@ -95,11 +104,16 @@ class Interpreter:
         file: str = "<program>",
         labels=None,
         reread=None,
+        fast: bool = True,
     ):
         self.profile = profile
         self.reporter = reporter if reporter is not None else Reporter()
         self.file = file
         self._labels = labels  # the program's LabelIndex, or a callable that scans for it on first use
+        self._fast = fast  # ordinary blocks take the fast path (tests compare it with the general one)
+        self._memo: dict[tuple, tuple[Modal, Modal]] = {}
+        self._interned: dict[Modal, Modal] = {}
+        self._jumps: bool | None = None  # whether any label may be a jump target
         self._reread = reread  # callable(first_line, last_line) -> Iterable[Block], for contours placed earlier
         self.table = G.SYSTEMS[profile.gcode_system]
         self.x: float | None = None
@@ -171,6 +185,10 @@ class Interpreter:
 
     # ------------------------------------------------------------------ one block
 
+    def step(self, block: Block) -> Step:
+        """Interpret one block in the current state (no corner words: :meth:`run` handles those)."""
+        return self._step(block)
+
     def _step(self, block: Block) -> Step:
         if block.kind != BLOCK:
             if block.kind == HEADER:
@@ -187,6 +205,18 @@ class Interpreter:
         in_contour = self._capture is not None
         if block.label is not None and self._is_jump_target(block.label):
             self._forget("a jump may arrive here")
+        if (
+            self._fast
+            and not in_contour
+            and block.statement is None
+            and block.delete is None
+            and not self._drilling
+            and not self._modal_macro
+        ):
+            step = self._ordinary(block)
+            if step is not None:
+                step.shared = self._shared
+                return step
         try:
             if block.delete is not None and block.codes:
                 raise _Uninterpretable("block delete: whether the control runs this block depends on its switch")
@@ -253,7 +283,104 @@ class Interpreter:
         return self._labels
 
     def _is_jump_target(self, label: int) -> bool:
-        return label in self.labels.goto_targets or self.labels.computed_goto
+        if self._jumps is None:
+            self._jumps = bool(self.labels.goto_targets) or self.labels.computed_goto
+        return self._jumps and (label in self.labels.goto_targets or self.labels.computed_goto)
+
+    # ------------------------------------------------------------------ the fast path
+
+    def _with(self, modal: Modal, name: str, value) -> Modal:
+        """``replace(modal, name=value)``, remembered: programs switch between few states."""
+        key = (id(modal), name, value)
+        found = self._memo.get(key)
+        if found is not None and found[0] is modal:
+            return found[1]
+        changed = replace(modal, **{name: value})
+        changed = self._interned.setdefault(changed, changed)  # equal states become one object
+        if len(self._memo) > 4096:
+            self._memo.clear()
+            self._interned.clear()
+        self._memo[key] = (modal, changed)
+        return changed
+
+    def _ordinary(self, block: Block) -> Step | None:
+        """An ordinary block (G00-G03, axis words, F, S, M) interpreted without the general
+        machinery, or None to take the general path. ``tests/test_interpreter_fast.py`` checks
+        that both give the same steps, modal states and warnings."""
+        modal = self.modal
+        motion = modal.motion
+        profile = self.profile
+        inch = modal.inch
+        values: dict[str, float] = {}
+        motion_given = False
+        for letter, value in block.codes:
+            if letter == "G":
+                mode = _FAST_MOTION.get(value)
+                if mode is None or motion_given:
+                    return None
+                motion, motion_given = mode, True
+                continue
+            if type(value) is not str:
+                return None
+            if letter == "M":
+                if value in _FLOW_M or not value.isdigit():
+                    return None
+                continue
+            if letter not in _FAST_LETTERS or letter in values:
+                return None
+            number = float(value)
+            if letter in _FAST_LENGTHS:
+                if "." not in value and not profile.calculator_input:
+                    number *= profile.increment(inch)
+                if inch:
+                    number *= INCH
+            values[letter] = number
+        if motion not in _FAST_MODES:
+            return None
+        has_x = "X" in values or "U" in values
+        has_z = "Z" in values or "W" in values
+        if ("X" in values and "U" in values) or ("Z" in values and "W" in values):
+            return None
+        feed = modal.feed
+        if "F" in values:
+            feed = values["F"] * (INCH if inch else 1.0)
+        if has_x or has_z:
+            if motion == G.G01:
+                if feed is None or feed == 0.0 or "R" in values or "I" in values or "K" in values:
+                    return None
+            elif motion != G.G00:
+                if modal.plane != 18 or self.x is None or self.z is None:
+                    return None
+        elif "I" in values or "K" in values or "R" in values:
+            return None
+        # commit the modal changes
+        if feed != modal.feed:
+            modal = self._with(modal, "feed", feed)
+        if "S" in values and values["S"] != modal.spindle:
+            modal = self._with(modal, "spindle", values["S"])
+        if motion != modal.motion:
+            modal = self._with(modal, "motion", motion)
+        self.modal = modal
+        if not (has_x or has_z):
+            return Step(block, (), modal)
+        diameter = 0.5 if profile.diameter_x else 1.0
+        x, z = self.x, self.z
+        x1, z1 = x, z
+        absolute = modal.absolute
+        if "X" in values:
+            x1 = values["X"] * diameter if absolute else (None if x is None else x + values["X"] * diameter)
+        elif "U" in values:
+            x1 = None if x is None else x + values["U"] * diameter
+        if "Z" in values:
+            z1 = values["Z"] if absolute else (None if z is None else z + values["Z"])
+        elif "W" in values:
+            z1 = None if z is None else z + values["W"]
+        if motion == G.G02 or motion == G.G03:
+            return self._arc(block, values, motion == G.G02, x1, z1)
+        move = Move(RAPID if motion == G.G00 else LINE, block.line, x, z, x1, z1, None, None, None, RUN, modal.feed,
+                    modal.per_rev, modal.comp, modal.tool, x1 is not None and z1 is not None)
+        self.x, self.z = x1, z1
+        return Step(block, (move,), modal)
 
     # ------------------------------------------------------------------ macro statements
 
@@ -550,7 +677,7 @@ class Interpreter:
         if motion in (G.G02, G.G03):
             if self.modal.plane != 18:
                 raise _Uninterpretable(f"an arc in plane G{self.modal.plane}, not the lathe's ZX plane (G18)")
-            return self._arc(block, words, motion == G.G02, x1, z1)
+            return self._arc(block, words.values, motion == G.G02, x1, z1)
         for letter in ("R", "I", "K", ",A") if motion == G.G01 else ():
             if letter in values:
                 raise _Uninterpretable(
@@ -575,8 +702,7 @@ class Interpreter:
         self._note_corner(step, block, values)
         return step
 
-    def _arc(self, block: Block, words: _Words, cw: bool, x1, z1) -> Step:
-        values = words.values
+    def _arc(self, block: Block, values: dict[str, float], cw: bool, x1, z1) -> Step:
         if None in (self.x, self.z, x1, z1):
             self.x, self.z = x1, z1
             raise _Uninterpretable("an arc from or to a position that is not known", None,
@@ -845,7 +971,7 @@ class Interpreter:
         moves: list[Move] = []
         for step in replay.run(contour.blocks):
             for move in step.moves:
-                moves.append(replace(move, role=REPLAY))
+                moves.append(move._replace(role=REPLAY))
         end = (replay.x, replay.z)
         if end != start:
             moves.append(Move(RAPID, block.line, end[0], end[1], start[0], start[1], feed=saved_modal.feed,

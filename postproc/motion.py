@@ -11,6 +11,7 @@ increasing, G03 (``ccw``) with theta decreasing. A coordinate the interpreter ca
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from .blocks import Block
 
@@ -27,9 +28,13 @@ REPLAY = "replay"  #: a contour move run again by G70 (its line is the contour b
 CORNER = "corner"  #: the chamfer or fillet a ``,C``/``,R`` word inserts
 
 
-@dataclass(frozen=True, slots=True)
-class Move:
-    """One motion, in radius millimetres."""
+class Move(NamedTuple):
+    """One motion, in radius millimetres.
+
+    Immutable like the other geometric values, but a named tuple rather than a frozen
+    dataclass: a program makes one per block, and a tuple is built several times faster.
+    Change one with ``move._replace(...)``.
+    """
 
     kind: str  #: rapid, line, arc, thread or cycle
     line: int  #: 1-based line of the block that commands it

@@ -9,10 +9,9 @@ from __future__ import annotations
 
 from typing import Iterable, Iterator
 
-from .blocks import BLANK, TRAILER, Block
+from .blocks import BLANK, TAPE, TRAILER, Block
 from .diagnostics import Location, Reporter
 from .fastpath import read_ordinary
-from .syntax import parse_block
 
 
 def read_blocks(lines: Iterable[tuple[str, str]], file: str, reporter: Reporter | None = None) -> Iterator[Block]:
@@ -29,15 +28,17 @@ def read_blocks(lines: Iterable[tuple[str, str]], file: str, reporter: Reporter 
             continue
         block = read_ordinary(text, line, eol)
         if block is None:
+            from .syntax import parse_block  # the grammar, built on the first unusual line
+
             block = parse_block(text, line, eol, file)
             if reporter is not None:
                 _note_spaced_numbers(block, file, reporter)
-            if block.kind == "tape":
-                if started:
-                    ended = True
-                started = True
-                yield block
-                continue
+        if block.kind == TAPE:
+            if started:
+                ended = True
+            started = True
+            yield block
+            continue
         if block.kind != BLANK:
             started = True
         yield block

@@ -203,7 +203,7 @@ class Plan:
     cuts: list[Cut]
     deviation: float  #: measured largest distance from the target
     method: str
-    notes: list[str] = field(default_factory=list)
+    widened: bool = False  #: merged beyond the tolerance (to keep blocks long enough), with a warning
 
 
 class Segmenter:
@@ -501,6 +501,9 @@ class Segmenter:
 
 def plan(target: Target, limits: Limits, mode: str = AUTO) -> Plan:
     """The fewest blocks within tolerance, as ``mode`` allows; raises PlanError if none."""
+    straight = _straight(target, limits)
+    if straight is not None:
+        return straight
     segmenter = Segmenter(target, limits)
     straight = segmenter.single_line()
     if straight is not None:
@@ -520,6 +523,26 @@ def plan(target: Target, limits: Limits, mode: str = AUTO) -> Plan:
     if not candidates:
         raise PlanError(f"no plan keeps within {limits.tolerance * 1000:.2f} um of the target")
     return min(candidates, key=lambda p: (len(p.cuts), p.method != "arcs"))
+
+
+def _straight(target: Target, limits: Limits) -> Plan | None:
+    """A line moved by a displacement that changes linearly along it is a line: one block,
+    its deviation the larger rounding of its two ends (a segment lies between its ends).
+    The common case of a whole program's short lines, planned without sampling."""
+    if not isinstance(target.nominal, Line):
+        return None
+    d = target.d
+    linear = d[0] + target.t[:, None] * (d[-1] - d[0])
+    if float(np.max(np.abs(d - linear))) > 1e-12:
+        return None
+    start, end = target.points[0], target.points[-1]
+    a, b = limits.grid.snap(*start), limits.grid.snap(*end)
+    if a == b:
+        return None
+    deviation = max(math.dist(a, start), math.dist(b, end))
+    if deviation > limits.tolerance:
+        return None
+    return Plan([Cut(a[0], a[1], b[0], b[1])], deviation, "line")
 
 
 class PlanError(ValueError):

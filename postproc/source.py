@@ -13,7 +13,6 @@ import re
 import shutil
 import sys
 import tempfile
-from dataclasses import dataclass, field
 from functools import cached_property
 from typing import BinaryIO, Iterator
 
@@ -26,15 +25,33 @@ _GOTO = re.compile(rb"(?i)goto[ \t]*(\d+|[#\[])")
 _CALL = re.compile(rb"(?i)(?:m[ \t]*0*98|g[ \t]*0*65)[^\r\n(]*?p[ \t]*(\d+)")
 
 
-@dataclass
 class LabelIndex:
-    """Where each sequence number stands, and which labels a GOTO may jump to."""
+    """Which labels a GOTO may jump to, which programs are called from where, and (scanned
+    only when a cycle asks) where each sequence number stands."""
 
-    lines: dict[int, list[int]] = field(default_factory=dict)  #: label -> up to 2 line numbers
-    counts: dict[int, int] = field(default_factory=dict)  #: label -> occurrences
-    goto_targets: set[int] = field(default_factory=set)
-    computed_goto: bool = False  #: a GOTO whose target is an expression: any label may be a target
-    calls: dict[int, int] = field(default_factory=dict)  #: program number -> places that call it (M98/G65)
+    def __init__(self, goto_targets=None, computed_goto: bool = False, calls=None, scan=None):
+        self.goto_targets: set[int] = goto_targets or set()
+        self.computed_goto = computed_goto  #: a GOTO whose target is an expression: any label may be a target
+        self.calls: dict[int, int] = calls or {}  #: program number -> places that call it (M98/G65)
+        self._scan = scan
+        self._lines: dict[int, list[int]] | None = None if scan else {}
+        self._counts: dict[int, int] | None = None if scan else {}
+
+    def _labels(self) -> None:
+        if self._lines is None:
+            self._lines, self._counts = self._scan()
+
+    @property
+    def lines(self) -> dict[int, list[int]]:
+        """Label -> its first two line numbers."""
+        self._labels()
+        return self._lines
+
+    @property
+    def counts(self) -> dict[int, int]:
+        """Label -> how many blocks carry it."""
+        self._labels()
+        return self._counts
 
 
 class Source:
@@ -96,8 +113,27 @@ class Source:
 
     @cached_property
     def labels(self) -> LabelIndex:
-        """Scan the whole program once, a chunk at a time, for sequence numbers and GOTO targets."""
-        index = LabelIndex()
+        """GOTO targets and subprogram calls, found by a quick scan; label places on demand."""
+        targets: set[int] = set()
+        calls: dict[int, int] = {}
+        computed = False
+        for chunk in self._chunks():
+            for match in _CALL.finditer(chunk):
+                number = int(match.group(1))
+                number = number % 10000 if number > 9999 else number  # M98 P31234: 3 times O1234
+                calls[number] = calls.get(number, 0) + 1
+            for match in _GOTO.finditer(chunk):
+                target = match.group(1)
+                if target.isdigit():
+                    targets.add(int(target))
+                else:
+                    computed = True
+        return LabelIndex(targets, computed, calls, scan=self._label_places)
+
+    def _label_places(self) -> tuple[dict[int, list[int]], dict[int, int]]:
+        """Scan the whole program, a chunk at a time, for the lines of its sequence numbers."""
+        lines: dict[int, list[int]] = {}
+        counts: dict[int, int] = {}
         line = 1
         for chunk in self._chunks():
             last = 0
@@ -106,22 +142,12 @@ class Source:
                 line += _count_lines(chunk, last, start)
                 last = start
                 label = int(match.group(1))
-                index.counts[label] = index.counts.get(label, 0) + 1
-                places = index.lines.setdefault(label, [])
+                counts[label] = counts.get(label, 0) + 1
+                places = lines.setdefault(label, [])
                 if len(places) < 2:
                     places.append(line)
             line += _count_lines(chunk, last, len(chunk))
-            for match in _CALL.finditer(chunk):
-                number = int(match.group(1))
-                number = number % 10000 if number > 9999 else number  # M98 P31234: 3 times O1234
-                index.calls[number] = index.calls.get(number, 0) + 1
-            for match in _GOTO.finditer(chunk):
-                target = match.group(1)
-                if target.isdigit():
-                    index.goto_targets.add(int(target))
-                else:
-                    index.computed_goto = True
-        return index
+        return lines, counts
 
     def _chunks(self, size: int = 1 << 20) -> Iterator[bytes]:
         """The file in pieces that end at a line ending, so that no line is split."""

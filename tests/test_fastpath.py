@@ -7,6 +7,7 @@ down to word spellings, columns, comments and the end-of-block mark.
 
 from __future__ import annotations
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -73,3 +74,9 @@ def test_arbitrary_fragments_agree_or_are_refused_by_both(parts):
         return
     if fast is not None:
         assert _view(fast) == _view(slow), text
+
+
+@pytest.mark.parametrize("text", ["%", " % ", "%\t", "O1234", "o0001 (PART)", "O1234;", "O1234 (X) ;", "O 12",
+                                  "O12(A(B))", "%(C)", "<NAME>", "O1234 ; (C)"])
+def test_tape_marks_and_headers_agree(text):
+    _agree(text)

@@ -1,0 +1,151 @@
+"""The benchmark suite: postproc against the regex floor and its peers, in one run.
+
+Every figure is a median of several runs of a whole process, measured side by side on the
+same files in this run (the machines are shared and noisy: compare ratios, not seconds).
+Peak memory is the child's maximum resident set size. Run with ``./scripts/bench``, which
+builds the benchmark's own environment (postproc, pygcode, gcodeparser).
+
+    python benchmarks/run.py [--runs N] [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+sys.path.insert(0, str(HERE))
+
+from programs import lathe_program  # noqa: E402
+
+PYTHON = sys.executable
+POSTPROC = [PYTHON, "-m", "postproc.cli"]
+
+
+def measure(command: list[str], runs: int, stdout=subprocess.DEVNULL) -> tuple[float, float, int]:
+    """Median wall time (s), median peak RSS (MB) and exit code of a command."""
+    times, peaks, code = [], [], 0
+    for _ in range(runs):
+        start = time.perf_counter()
+        process = subprocess.Popen(command, stdout=stdout, stderr=subprocess.DEVNULL)
+        _, status, usage = os.wait4(process.pid, 0)
+        times.append(time.perf_counter() - start)
+        peaks.append(usage.ru_maxrss / 1024.0)
+        code = os.waitstatus_to_exitcode(status)
+    return statistics.median(times), statistics.median(peaks), code
+
+
+def row(name: str, seconds: float, peak: float, blocks: int, floor: float | None, code: int = 0, note: str = "") -> str:
+    rate = blocks / seconds if seconds else 0.0
+    ratio = f"{floor / seconds:5.2f}x" if floor else "      "
+    failed = "" if code == 0 else f"  (exit {code})"
+    return f"  {name:<34} {seconds:8.3f} s  {rate / 1000:8.1f} k blocks/s  {ratio}  {peak:7.1f} MB{failed}{note}"
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=5, help="runs per measurement (median)")
+    parser.add_argument("--quick", action="store_true", help="smaller programs, fewer runs: a smoke test")
+    args = parser.parse_args()
+    runs = 2 if args.quick else args.runs
+    work = Path(tempfile.mkdtemp(prefix="postproc-bench-"))
+    try:
+        return _suite(work, runs, args.quick)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def _suite(work: Path, runs: int, quick: bool) -> int:
+    big_blocks = 20_000 if quick else 200_000
+    big = work / "big.nc"
+    big.write_text(lathe_program(big_blocks))
+    small = work / "small.nc"
+    small.write_text(lathe_program(1000, seed=2))
+    out = work / "out.nc"
+
+    print(f"postproc benchmark: {big_blocks} and 1000-block lathe programs, median of {runs} runs, "
+          f"python {sys.version.split()[0]}, {os.cpu_count()} cpus\n")
+    print(f"Parsing and interpreting a {big_blocks}-block program (ratio: speed relative to the regex floor)")
+    floor, floor_peak, _ = measure([PYTHON, str(HERE / "floor.py"), str(big)], runs)
+    print(row("regex tokenizer floor", floor, floor_peak, big_blocks, floor))
+    results = {}
+    for name, command in (
+        ("postproc check", POSTPROC + ["check", str(big)]),
+        ("postproc compensate (identity)", POSTPROC + ["compensate", str(big), "-o", str(out)]),
+        ("pygcode", [PYTHON, str(HERE / "peers.py"), "pygcode", str(big)]),
+        ("gcodeparser", [PYTHON, str(HERE / "peers.py"), "gcodeparser", str(big)]),
+    ):
+        seconds, peak, code = measure(command, runs if "postproc" in name else max(1, runs // 2))
+        results[name] = (seconds, peak, code)
+        print(row(name, seconds, peak, big_blocks, floor, code))
+
+    print("\nA 1000-block program end to end (process start to exit)")
+    model = _model(work)
+    for name, command, limit in (
+        ("postproc check", POSTPROC + ["check", str(small)], 0.3),
+        ("postproc compensate (identity)", POSTPROC + ["compensate", str(small), "-o", str(out)], 0.3),
+        ("postproc compensate --model", POSTPROC + ["compensate", str(small), "--model", str(model), "-o", str(out)], 0.8),
+    ):
+        seconds, peak, code = measure(command, runs)
+        verdict = "met" if seconds < limit and code == 0 else "NOT MET"
+        print(row(name, seconds, peak, 1000, None, code, f"  target < {limit} s: {verdict}"))
+
+    print("\nCompensation throughput (parametric model, 1 um tolerance, segmenter and self-check included)")
+    moves_blocks = 4000 if quick else 20_000
+    feed = work / "feed.nc"
+    feed.write_text(lathe_program(moves_blocks, seed=3))
+    seconds, peak, code = measure(POSTPROC + ["compensate", str(feed), "--model", str(model), "--tolerance", "0.001",
+                                              "-o", str(out)], max(1, runs // 2))
+    moves = sum(1 for line in feed.read_text().splitlines() if line.startswith(("N", "G01", "G03")))
+    verdict = "met" if moves / seconds >= 5000 and code == 0 else "NOT MET"
+    print(f"  {moves} feed moves in {seconds:.2f} s: {moves / seconds:,.0f} moves/s, {peak:.1f} MB "
+          f"(target 5,000 moves/s: {verdict}){'' if code == 0 else f' (exit {code})'}")
+
+    print("\nImport time of the command line (python -X importtime, cumulative)")
+    _imports()
+
+    check = results["postproc check"][0]
+    identity = results["postproc compensate (identity)"][0]
+    print("\nTargets")
+    print(f"  check at {floor / check:.2f}x the floor, identity compensate at {floor / identity:.2f}x (target 0.5x): "
+          f"{'met' if min(floor / check, floor / identity) >= 0.5 else 'NOT MET'}")
+    peak = max(results["postproc check"][1], results["postproc compensate (identity)"][1])
+    print(f"  peak memory {peak:.1f} MB (target 150 MB): {'met' if peak <= 150 else 'NOT MET'}")
+    return 0
+
+
+def _model(work: Path) -> Path:
+    """A parametric model fitted from the bundled sample traces."""
+    model = work / "model.json"
+    subprocess.run(POSTPROC + ["fit", "--plugin", "parametric", "--option", "extrapolate=true",
+                               "--ballbar", str(REPO / "samples/ballbar/v40r-100-ccw.csv"),
+                               "--ballbar", str(REPO / "samples/ballbar/v40r-100-cw.csv"), "-o", str(model)],
+                   check=True, stderr=subprocess.DEVNULL)
+    return model
+
+
+def _imports() -> None:
+    result = subprocess.run([PYTHON, "-X", "importtime", "-c", "import postproc.cli"], capture_output=True, text=True)
+    rows = []
+    for line in result.stderr.splitlines():
+        parts = line.split("|")
+        if len(parts) == 3 and parts[1].strip().isdigit():
+            rows.append((int(parts[1]), parts[2].rstrip()))
+    total = max(rows)[0] if rows else 0
+    print(f"  postproc.cli: {total / 1e6:.3f} s in all; the heaviest modules:")
+    for micros, name in sorted(rows, reverse=True)[1:6]:
+        print(f"    {micros / 1e6:.3f} s {name.strip()}")
+    heavy = [name.strip() for _, name in rows if name.strip() in ("numpy", "scipy", "matplotlib", "lark")]
+    print(f"  numpy, scipy, matplotlib or lark loaded at start: {', '.join(heavy) or 'none'}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
