@@ -63,6 +63,9 @@ class _Commands(click.Group):
     modules = {
         "ballbar": "postproc.commands.ballbar",
         "budget": "postproc.commands.budget",
+        "inspect": "postproc.commands.inspect",
+        "probe-import": "postproc.commands.probe_import",
+        "probe-program": "postproc.commands.probe_program",
         "report": "postproc.commands.report",
         "simulate": "postproc.commands.simulate",
     }
@@ -106,9 +109,10 @@ def main() -> None:
 @click.option("--diff", is_flag=True, help="Write a unified diff of the change to stdout instead of the program.")
 @click.option("--check", "check_only", is_flag=True, help="Write nothing; exit 1 if the program would change.")
 @click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True, help="Programs compensated at once.")
+@click.option("--report", "report_file", metavar="FILE", help="Write what each compensator fitted, and how well, as JSON.")
 @_reported
 def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, model, machine, tolerance, mode,
-               options, regions, max_correction, force, diff, check_only, jobs):
+               options, regions, max_correction, force, diff, check_only, jobs, report_file):
     """Compensate part programs; with no compensator, write the input back byte for byte."""
     from .api import Pipeline
 
@@ -129,6 +133,8 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
     if diff or check_only:
         changed = [name for name in inputs if _review(pipeline, name, diff)]
         reporter.close()
+        if report_file:
+            _write_report(pipeline, report_file)
         if check_only and changed:
             for name in changed:
                 click.echo(f"{name}: would be changed", err=True)
@@ -140,11 +146,15 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
         jobs_list = [(name, os.path.join(out_dir, os.path.basename(name))) for name in inputs]
         code = batch.run(jobs_list, pipeline, jobs)
         reporter.close()
+        if report_file:
+            _write_report(pipeline, report_file)
         if code:
             sys.exit(code)
         return
     summary = pipeline.compensate_file(inputs[0], output or STDOUT)
     reporter.close()
+    if report_file:
+        _write_report(pipeline, report_file)
     if pipeline.core is not None:
         click.echo(
             f"{summary.name}: {summary.replaced} blocks replaced by {summary.emitted}; largest correction "
@@ -152,6 +162,24 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
             f"{summary.largest_deviation * 1000:.3f} um",
             err=True,
         )
+
+
+def _write_report(pipeline, path: str) -> None:
+    """The compensators' reports (fitted parameters, uncertainties, figures, dropped points) as JSON."""
+    import json
+
+    from .output import write_atomically
+
+    reports = pipeline.core.report() if pipeline.core is not None else []
+    write_atomically(path, (json.dumps({"compensators": reports}, indent=1, default=_jsonable) + "\n").encode())
+
+
+def _jsonable(value):
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    if hasattr(value, "as_dict"):
+        return value.as_dict()
+    return str(value)
 
 
 def _review(pipeline, name: str, diff: bool) -> bool:

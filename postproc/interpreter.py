@@ -378,7 +378,7 @@ class Interpreter:
         if motion == G.G02 or motion == G.G03:
             return self._arc(block, values, motion == G.G02, x1, z1)
         move = Move(RAPID if motion == G.G00 else LINE, block.line, x, z, x1, z1, None, None, None, RUN, modal.feed,
-                    modal.per_rev, modal.comp, modal.tool, x1 is not None and z1 is not None)
+                    modal.per_rev, modal.comp, modal.tool, x1 is not None and z1 is not None, modal.offset)
         self.x, self.z = x1, z1
         return Step(block, (move,), modal)
 
@@ -653,7 +653,7 @@ class Interpreter:
         modal = self.modal
         return Move(
             kind, block.line, self.x, self.z, x1, z1, role=self._role(), feed=modal.feed, per_rev=modal.per_rev,
-            comp=modal.comp, tool=modal.tool, **arc,
+            comp=modal.comp, tool=modal.tool, offset=modal.offset, **arc,
         )
 
     # ------------------------------------------------------------------ motion

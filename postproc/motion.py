@@ -51,6 +51,7 @@ class Move(NamedTuple):
     comp: int = 40  #: cutter compensation in force: 40, 41 or 42
     tool: int | None = None  #: tool number (T0303 -> 3)
     exact: bool = True  #: geometry known exactly as the control will run it
+    offset: int | None = None  #: tool offset number in force (T0312 -> 12)
 
     @property
     def known(self) -> bool:

@@ -239,9 +239,7 @@ class Rewriter:
         moves = [m for m in previous.step.moves if m.role in (RUN, CONTOUR, CORNER)]
         last_move = moves[-1]
         last_edit = previous.edits[previous.step.moves.index(last_move)]
-        if entry is None:
-            if last_edit is not None and last_edit.end != (last_move.x1, last_move.z1):
-                last_edit.lead_out = self._connector(last_edit.end, (last_move.x1, last_move.z1), previous.step)
+        if entry is None:  # the program ends: nothing follows from the nominal end
             return
         firsts = [m for m in entry.step.moves if m.role in (RUN, CONTOUR, CORNER)]
         first_move = firsts[0]
@@ -256,9 +254,7 @@ class Rewriter:
         if self._has_corner(previous.step.block) and first_edit is not None and not previous.edited:
             self._explicit(previous)
             last_edit = previous.edits[previous.step.moves.index(last_move)]
-        if not connected:
-            if last_edit is not None and last_edit.end != (last_move.x1, last_move.z1):
-                last_edit.lead_out = self._connector(last_edit.end, (last_move.x1, last_move.z1), previous.step)
+        if not connected:  # the next move does not start from here (a contour's end, a jump): nothing to join
             return
         nominal = (last_move.x1, last_move.z1)
         if last_edit is None and first_edit is None:

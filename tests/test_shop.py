@@ -116,3 +116,14 @@ def test_python_api(tmp_path):
         postproc.Pipeline(plugins=["nope"])
     with pytest.raises(SafetyError):
         postproc.compensate_text(out, plugins=["ballbar-inverse"], ballbar=ballbar, options=["radius-mapping=relative"])
+
+
+def test_report_json_says_what_was_fitted(run, tmp_path):
+    import json
+
+    report = tmp_path / "r.json"
+    result = run("compensate", HEMISHELL, "--plugin", "tool-offset", "--probe", str(SAMPLES / "probe" / "hemishell-pass1.csv"),
+                 "--calibration", str(SAMPLES / "probe" / "artifact-calibration.csv"), "--report", str(report), "--force")
+    assert result.exit_code == 0, result.stderr
+    (entry,) = json.loads(report.read_text())["compensators"]
+    assert entry["plugin"] == "tool-offset" and "offset_mm" in json.dumps(entry)

@@ -1,0 +1,303 @@
+"""Closed loop with the on-machine probe: cut on the virtual lathe, probe, compensate through the
+command line, cut again, inspect with the virtual CMM (methods.md 9, 10; dissertation 6.4, 7.5).
+
+The virtual V40R of the samples (seeded) stands in for the machine. Figures are the four of
+methods.md 12; the CMM point at the pole lands on the nub, which no path can reach (the tool
+never gets to the axis), so the figures are taken over the points off the axis, as the source
+read its profiles ("neglecting the pole").
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from postproc.api import Pipeline
+from postproc.cli import main
+from postproc.diagnostics import EXIT_BAD_INPUT, EXIT_REFUSED
+
+REPO = Path(__file__).resolve().parents[1]
+HEMISHELL = str(REPO / "samples" / "programs" / "hemishell.nc")
+SAMPLE_MACHINE = REPO / "samples" / "machines" / "v40r-sim.toml"
+ARC_LINE = "10"  #: the hemishell's G03
+R = 57.15
+STOCK = 0.025  #: the first pass is cut this far outside (0.0254 mm in the source; 0.001 mm diameter grid here)
+
+CYLINDER = """%
+O3000 (PLAIN CYLINDER)
+G18 G21 G40 G99
+T0101
+G00 X100. Z5.
+G01 Z-50. F0.1
+G00 X120.
+M30
+%
+"""
+
+# An outside profile of lines and arcs away from the axis: a chamfer, a cylinder, a fillet, a shoulder.
+SHAFT = """%
+O2000 (SHAFT)
+G18 G21 G40 G98
+T0101
+G00 X90. Z10.
+G01 X100. Z5. F200.
+G01 Z-20.
+G02 X140. Z-40. R20.
+G01 X160.
+G00 X200. Z50.
+M30
+%
+"""
+
+
+def postproc(*args, input: str | None = None):
+    """``postproc ARGS`` through the real command line, in-process."""
+    return CliRunner().invoke(main, [str(a) for a in args], input=input, catch_exceptions=False)
+
+
+def ok(*args):
+    result = postproc(*args)
+    assert result.exit_code == 0, result.stderr
+    return result
+
+
+def machine(tmp_path: Path, name: str, **changes: str) -> str:
+    """The sample machine with some lines of its [simulation] tables replaced: ``key=value``."""
+    text = SAMPLE_MACHINE.read_text()
+    for key, value in changes.items():
+        lines = [line for line in text.splitlines() if line.startswith(f"{key} =")]
+        assert len(lines) == 1, key
+        text = text.replace(lines[0], f"{key} = {value}")
+    path = tmp_path / name
+    path.write_text(text)
+    return str(path)
+
+
+def perfect_but(tmp_path: Path, table: str) -> str:
+    """A machine with only the errors of a [simulation] table given as TOML text."""
+    path = tmp_path / "machine.toml"
+    path.write_text(f'name = "test"\n[simulation]\nseed = 11\n{table}')
+    return str(path)
+
+
+def first_pass(tmp_path: Path, stock: float) -> str:
+    """The hemishell program, ``stock`` further out."""
+    r = R + stock
+    text = Path(HEMISHELL).read_text()
+    text = text.replace("G01 Z57.15 F", f"G01 Z{r:.3f} F").replace(
+        "G03 X114.3 Z0. I0. K-57.15", f"G03 X{2 * r:.3f} Z0. I0. K-{r:.3f}")
+    path = tmp_path / "pass1.nc"
+    path.write_text(text)
+    return str(path)
+
+
+def arc_lines(program: str) -> tuple[str, str]:
+    """The lines of the blocks that now make the hemishell arc (both ends on its sphere)."""
+    rows = ok("path", program).stdout.splitlines()[1:]
+    lines = []
+    for row in rows:
+        line, kind, *numbers = row.split(",")
+        if kind in ("line", "arc"):
+            x0, z0, x1, z1 = (float(v) for v in numbers[:4])
+            if abs(np.hypot(x0, z0) - R) < 0.1 and abs(np.hypot(x1, z1) - R) < 0.1:
+                lines.append(int(line))
+    return str(min(lines)), str(max(lines))
+
+
+def inspect(the_machine: str, tmp_path: Path, program: str = HEMISHELL) -> dict:
+    """The CMM's deviations of the surface ``program`` cuts from the nominal hemishell arc."""
+    first, last = (ARC_LINE, ARC_LINE) if program == HEMISHELL else arc_lines(program)
+    surface = tmp_path / "surface.csv"
+    ok("simulate", "cut", program, "--machine", the_machine, "--from-line", first, "--to-line", last, "-o", surface)
+    result = ok("simulate", "inspect", HEMISHELL, "--machine", the_machine, "--from-line", ARC_LINE, "--to-line",
+                ARC_LINE, "--surface", surface, "--json")
+    return json.loads(result.stdout)
+
+
+def off_pole(inspection: dict) -> tuple[float, float]:
+    """Mean and standard deviation (um, ddof 0) of the points off the spindle axis."""
+    deviation = np.array([p["deviation_mm"] for p in inspection["points"] if p["x_mm"] > 1.0]) * 1000.0
+    return float(deviation.mean()), float(deviation.std())
+
+
+def probe_and_calibrate(program: str, the_machine: str, tmp_path: Path, lines=(ARC_LINE, ARC_LINE)):
+    probe, calibration = tmp_path / "p.csv", tmp_path / "c.csv"
+    ok("simulate", "probe", program, "--machine", the_machine, "--from-line", lines[0], "--to-line", lines[1],
+       "-o", probe)
+    ok("simulate", "calibrate", "--machine", the_machine, "-o", calibration)
+    return str(probe), str(calibration)
+
+
+# -- omp-feedback ---------------------------------------------------------------------------
+
+
+def test_omp_feedback_at_least_halves_the_mean_and_the_spread_of_a_cut_part(tmp_path):
+    """Tool set 18 um off in X and 2 um in Z, deflection, a nub at the pole, a probe with lobing."""
+    the_machine = machine(tmp_path, "v40r.toml", tool_offset_x_mm="0.018", tool_offset_z_mm="0.002")
+    probe, calibration = probe_and_calibrate(first_pass(tmp_path, STOCK), the_machine, tmp_path)
+    compensated = tmp_path / "hemishell-omp.nc"
+    result = ok("compensate", HEMISHELL, "--plugin", "omp-feedback", "--probe", probe, "--calibration", calibration,
+                "--option", f"stock={STOCK}", "-o", compensated)
+    assert "dropped as the nub at the pole" in result.stderr
+
+    before = off_pole(inspect(the_machine, tmp_path))
+    after = off_pole(inspect(the_machine, tmp_path, str(compensated)))
+    print(f"omp-feedback: mean {before[0]:+.2f} -> {after[0]:+.2f} um, sigma {before[1]:.2f} -> {after[1]:.2f} um")
+    assert before[0] > 10.0 and before[1] > 3.0  # the error is there to be taken out
+    assert abs(after[0]) <= abs(before[0]) / 2 and after[1] <= before[1] / 2
+    assert abs(after[0]) < 1.5 and after[1] < 1.5  # the source: -0.1 / 1.4 um
+
+
+def test_omp_feedback_reports_both_figures_and_the_dropped_nub(tmp_path):
+    sample = REPO / "samples" / "probe"
+    pipeline = Pipeline(plugins=["omp-feedback"], probe=[str(sample / "hemishell-pass1.csv")],
+                        calibration=str(sample / "artifact-calibration.csv"))
+    pipeline.compensate_text(Path(HEMISHELL).read_text())
+    report = pipeline.core.report()[0]
+    chain = report["chains"][0]
+    assert chain["moves"] == "lines 9-11" and chain["points"] == 36
+    assert [(d["row"], d["kind"]) for d in chain["dropped"]] == [(13, "nub")]
+    assert chain["measured_error_um"]["std_um"] > chain["cleaned_error_um"]["std_um"]
+    assert chain["cleaned_error_um"]["mean_um"] == pytest.approx(11.5, abs=1.0)
+    # the stretch runs from the pole to the equator: the whole arc and neither line
+    assert chain["stretch_mm"] == pytest.approx([4.85, 4.85 + np.pi / 2 * R], abs=1e-6)
+    assert any("datum x stable" in note for note in report["notes"])
+
+
+def test_omp_feedback_moves_only_the_stretch_the_touches_cover(tmp_path):
+    """A profile of lines and arcs probed from part way down its cylinder to its shoulder."""
+    program = tmp_path / "shaft.nc"
+    program.write_text(SHAFT)
+    the_machine = perfect_but(tmp_path, "[simulation.cut]\ntool_offset_x_mm = 0.010\ntool_offset_z_mm = -0.006\n")
+    probe = tmp_path / "p.csv"
+    ok("simulate", "probe", program, "--machine", the_machine, "-o", probe)
+    rows = probe.read_text().splitlines()
+    header = rows.index("x_mm,z_mm,approach_x,approach_z") + 1
+    kept = [row for row in rows[header:] if float(row.split(",")[1]) < -2.0]  # not the chamfer, not the top
+    probe.write_text("\n".join(rows[:header] + kept) + "\n")
+    first_z = max(float(row.split(",")[1]) for row in kept)
+
+    text = ok("compensate", program, "--plugin", "omp-feedback", "--probe", probe).stdout
+    assert "G01 X100. Z5. F200.\n" in text  # the chamfer: not covered, unchanged
+    path = [row.split(",") for row in postproc("path", "-", input=text).stdout.splitlines()[1:]]
+    moves = [(kind, *(float(v) for v in numbers[:4])) for _, kind, *numbers in path if kind in ("line", "arc")]
+    top = [m for m in moves if m[0] == "line" and m[1] == m[3] == 50.0 and m[2] == 5.0]
+    # the cylinder above the first touch stays, up to the core's last sample before it (0.05 mm apart)
+    assert len(top) == 1 and abs(top[0][4] - first_z) <= 0.05
+    body = [m for m in moves if m[0] == "line" and m[1] == m[3] and m[4] < first_z - 0.05]
+    assert body and all(m[1] == m[3] == pytest.approx(50.0 - 0.010, abs=0.0011) for m in body)
+    shoulder = moves[-1]  # the face at z = -40 is 6 um low: it moves up by 6 um
+    assert shoulder[2] == shoulder[4] == pytest.approx(-40.0 + 0.006, abs=0.0011)
+
+
+# -- tool-offset ----------------------------------------------------------------------------
+
+TOOL_SET = (0.020, -0.012)  #: the injected tool-setting error, radius mm
+
+
+@pytest.fixture
+def tool_set(tmp_path):
+    """A machine whose only cutting error is a tool set (20, -12) um off, probed and calibrated."""
+    the_machine = perfect_but(tmp_path, f"""
+[simulation.probe]
+pretravel_mm = 0.006
+lobing_mm = 0.0015
+noise_mm = 0.0005
+[simulation.cut]
+tool_offset_x_mm = {TOOL_SET[0]}
+tool_offset_z_mm = {TOOL_SET[1]}
+[simulation.cmm]
+noise_mm = 0.0003
+""")
+    return (the_machine, *probe_and_calibrate(HEMISHELL, the_machine, tmp_path))
+
+
+def test_tool_offset_recovers_the_tool_setting_error_and_compensating_removes_it(tool_set, tmp_path):
+    the_machine, probe, calibration = tool_set
+    pipeline = Pipeline(plugins=["tool-offset"], probe=[probe], calibration=calibration)
+    pipeline.compensate_text(Path(HEMISHELL).read_text())
+    report = pipeline.core.report()[0]
+    offset, sigma = report["offset_mm"], report["offset_sigma_mm"]
+    assert abs(offset["x"] - TOOL_SET[0]) < 0.0005 and abs(offset["z"] - TOOL_SET[1]) < 0.0005
+    assert 0 < sigma["x"] < 0.0005 and 0 < sigma["z"] < 0.0005
+    assert report["tool"] == 1 and report["largest_residual_mm"] <= report["residual_allowed_mm"] == 0.005
+
+    compensated = tmp_path / "hemishell-offset.nc"
+    ok("compensate", HEMISHELL, "--plugin", "tool-offset", "--probe", probe, "--calibration", calibration,
+       "-o", compensated)
+    before = off_pole(inspect(the_machine, tmp_path))
+    after = off_pole(inspect(the_machine, tmp_path, str(compensated)))
+    print(f"tool-offset: mean {before[0]:+.2f} -> {after[0]:+.2f} um, sigma {before[1]:.2f} -> {after[1]:.2f} um")
+    assert before[1] > 5.0
+    # what is left is the output's rounding: the G03 is written on the 0.001 mm grid within 1 um of the target
+    assert abs(after[0]) < 1.0 and after[1] < 1.0
+
+
+def test_a_wear_offset_is_written_as_g10_with_the_controls_signs_and_the_path_is_left_alone(tool_set):
+    _, probe, calibration = tool_set
+    base = ["compensate", HEMISHELL, "--plugin", "tool-offset", "--probe", probe, "--calibration", calibration,
+            "--option", "apply=wear-offset"]
+    text = ok(*base).stdout
+    # 20 um too big in radius: X-0.040 on the diameter; 12 um short in Z: Z+0.012
+    assert "\nG10 P1 X-0.040 Z0.012\n" in text
+    provenance = ("(POSTPROC", "(PLUGIN", "(INPUT", "(TOLERANCE", "(LARGEST", "(BLOCKS", "G10 ")
+    body = [line for line in text.splitlines() if not line.startswith(provenance)]
+    assert body == Path(HEMISHELL).read_text().splitlines()
+    assert "(BLOCKS REPLACED 0 BY 0)" in text
+    # absolute values: what the register held when the part was cut, plus the correction
+    again = ok(*base, "--option", "wear-x=0.010", "--option", "wear-z=-0.002", "--option", "offset=12").stdout
+    assert "\nG10 P12 X-0.030 Z0.010\n" in again
+
+
+def test_a_profile_that_does_not_fix_both_axes_is_refused(tmp_path):
+    program = tmp_path / "cylinder.nc"
+    program.write_text(CYLINDER)
+    probe = tmp_path / "p.csv"
+    ok("simulate", "probe", program, "-o", probe)
+    result = postproc("compensate", program, "--plugin", "tool-offset", "--probe", probe)
+    assert result.exit_code == EXIT_BAD_INPUT and result.stdout == ""
+    assert "do not fix both X and Z (a plain cylinder fixes only X" in result.stderr
+    # the reflection needs no second axis
+    ok("compensate", program, "--plugin", "omp-feedback", "--probe", probe)
+
+
+def test_a_form_error_beyond_the_residual_tolerance_is_refused_unless_forced():
+    sample = REPO / "samples" / "probe"
+    base = ["compensate", HEMISHELL, "--plugin", "tool-offset", "--probe", sample / "hemishell-pass1.csv",
+            "--calibration", sample / "artifact-calibration.csv", "--option", "residual=0.0005"]
+    result = postproc(*base)
+    assert result.exit_code == EXIT_REFUSED and result.stdout == ""
+    assert "the form is not right, and a tool offset would not make it right" in result.stderr
+    forced = ok(*base, "--force")
+    assert "applied anyway (--force)" in forced.stderr and "G03" in forced.stdout
+
+
+def test_a_saved_model_compensates_as_the_files_do(tmp_path):
+    sample = REPO / "samples" / "probe"
+    files = ["--probe", sample / "hemishell-pass1.csv", "--calibration", sample / "artifact-calibration.csv"]
+    for plugin, options in (("omp-feedback", []), ("tool-offset", ["--option", "apply=wear-offset"])):
+        model = tmp_path / f"{plugin}.json"
+        ok("fit", "--plugin", plugin, *files, *options, "-o", model)
+        direct = ok("compensate", HEMISHELL, "--plugin", plugin, *files, *options).stdout
+        applied = ok("compensate", HEMISHELL, "--model", model).stdout
+        assert [line for line in applied.splitlines() if not line.startswith("(")] == \
+            [line for line in direct.splitlines() if not line.startswith("(")]
+
+
+# -- the datum check ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("plugin", ["omp-feedback", "tool-offset"])
+def test_a_datum_that_moved_refuses_the_points_and_force_overrides(plugin, tmp_path):
+    the_machine = machine(tmp_path, "warm.toml", drift_x_mm="0.006")  # over repeatability_mm = 0.003
+    probe, calibration = probe_and_calibrate(HEMISHELL, the_machine, tmp_path)
+    base = ["compensate", HEMISHELL, "--plugin", plugin, "--probe", probe, "--calibration", calibration]
+    result = postproc(*base)
+    assert result.exit_code == EXIT_REFUSED and result.stdout == ""
+    assert f"{probe}: error: the machine moved during the inspection: datum_before_x_mm" in result.stderr
+    forced = ok(*base, "--force")
+    assert "used anyway (--force)" in forced.stderr and "(POSTPROC" in forced.stdout
