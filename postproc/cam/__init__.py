@@ -1,0 +1,1 @@
+"""Post-processors for CAM systems that write programs postproc then compensates."""
