@@ -83,10 +83,34 @@ class _Commands(click.Group):
         return super().get_command(ctx, name)
 
 
+class _Tee:
+    """stderr that also goes to a log file (for CAM systems that do not show stderr)."""
+
+    def __init__(self, stream, log):
+        self.stream, self.log = stream, log
+
+    def write(self, text: str) -> int:
+        self.log.write(text)
+        self.log.flush()
+        return self.stream.write(text)
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+    def isatty(self) -> bool:
+        return self.stream.isatty()
+
+
 @click.group(cls=_Commands, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="postproc")
-def main() -> None:
+@click.option("--log", metavar="FILE", help="Copy every message to FILE (appended) as well as to stderr.")
+def main(log: str | None = None) -> None:
     """Rewrite FANUC lathe part programs so that the next part is cut right."""
+    if log:
+        try:
+            sys.stderr = _Tee(sys.stderr, open(log, "a", encoding="utf-8"))
+        except OSError as exc:
+            raise click.UsageError(f"--log {log}: {exc.strerror}") from None
 
 
 @main.command()

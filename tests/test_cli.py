@@ -85,3 +85,10 @@ def test_usage_errors_exit_2(run, tmp_path):
 def test_version_and_help(run):
     assert run("--version").stdout.startswith("postproc, version ")
     assert "compensate" in run("--help").stdout
+
+
+def test_log_copies_messages_to_a_file(run, tmp_path):
+    log = tmp_path / "postproc.log"
+    result = run("--log", str(log), "check", input=HEMISHELL)
+    assert result.exit_code == 0
+    assert log.read_text() == "<stdin>: ok: 10 lines, 4 moves, 0 warnings\n"
