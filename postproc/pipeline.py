@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import hashlib
 import re
+import signal
 import tempfile
+import threading
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -136,9 +138,13 @@ class Pipeline:
     @staticmethod
     def _guarded(compensator: Compensator, what: str, function, *args):
         try:
-            return function(*args)
+            with _time_limit(compensator.context.profile.plugin_time_limit_s):
+                return function(*args)
         except PostprocError:
             raise
+        except _Overtime:
+            raise PluginError(compensator.name, f"{what} took longer than {compensator.context.profile.plugin_time_limit_s:g} s "
+                              "(the machine profile's plugin_time_limit_s): stopped") from None
         except Exception as exc:
             raise PluginError(compensator.name, f"{what} failed: {exc.__class__.__name__}: {exc}") from None
 
@@ -164,6 +170,7 @@ class Pipeline:
             system=self.profile.gcode_system,
             min_block_time_s=self.profile.min_block_time_s,
             max_spindle_rpm=self.profile.max_spindle_rpm,
+            nose_radius=self.profile.nose_radius_mm,
             x_limits=self.profile.x_limits,
             z_limits=self.profile.z_limits,
             default_tolerance=self.profile.default_tolerance,
@@ -257,6 +264,37 @@ class Pipeline:
 
     def report(self) -> list[dict[str, Any]]:
         return [{"plugin": c.name, **c.report()} for c in self.compensators]
+
+
+class _Overtime(Exception):
+    """A plugin call ran past its time limit."""
+
+
+class _time_limit:
+    """Stop a plugin call that runs too long (a timer signal; only in the main thread, on Unix)."""
+
+    _installed = False
+
+    def __init__(self, seconds: float):
+        self.seconds = seconds
+        self.armed = False
+
+    def __enter__(self):
+        if self.seconds > 0 and threading.current_thread() is threading.main_thread() and hasattr(signal, "setitimer"):
+            if not _time_limit._installed:
+                signal.signal(signal.SIGALRM, _time_limit._expire)
+                _time_limit._installed = True
+            signal.setitimer(signal.ITIMER_REAL, self.seconds)
+            self.armed = True
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.armed:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+
+    @staticmethod
+    def _expire(signum, frame):
+        raise _Overtime()
 
 
 def _safe(text: str) -> str:

@@ -39,11 +39,13 @@ class MachineProfile:
     max_arc_radius: float = 5000.0  #: an arc above this radius is emitted as lines
     min_block_time_s: float = 0.001  #: shortest block the look-ahead digests at full feed
     max_spindle_rpm: float = 4000.0  #: the spindle's top speed (bounds G96 near the axis)
+    nose_radius_mm: float = 0.4  #: no block under G41/G42 shorter than this (the interference check)
     x_limits: tuple[float, float] | None = None  #: soft limits of x (radius mm, work coordinates); None: not set
     z_limits: tuple[float, float] | None = None  #: soft limits of z (mm, work coordinates)
     tolerance: float | None = None  #: default tolerance; None: formats.md's rule
     max_correction: float = 0.1  #: largest correction allowed anywhere
-    model_max_age_days: float = 30.0  #: a saved model measured longer ago than this gets a warning
+    model_max_age_days: float = 30.0
+    plugin_time_limit_s: float = 60.0  #: a compensator call that runs longer is stopped and named  #: a saved model measured longer ago than this gets a warning
     output_decimals_mm: int = 3  #: decimals written for mm values
     output_decimals_inch: int = 4  #: decimals written for inch values
     spindle_speed_fluctuation: bool = False

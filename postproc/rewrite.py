@@ -149,6 +149,7 @@ class Settings:
     max_spindle_rpm: float = 4000.0
     x_limits: tuple[float, float] | None = None
     z_limits: tuple[float, float] | None = None
+    nose_radius: float = 0.4
     default_tolerance: Callable[[bool], float] = lambda inch: 0.001
 
 
@@ -356,6 +357,19 @@ class Rewriter:
     def _snap(self, step: Step, point) -> tuple[float, float]:
         return self._grid(step).snap(*point)
 
+    @staticmethod
+    def _rebalanced(first: Cut, second: Cut, target: Target, grid: Grid, shortest: float) -> list[Cut]:
+        """Two neighbouring blocks, one too short: the shared vertex moved to the target halfway
+        between their outer ends when both halves are then long enough, else one block."""
+        if first.length + second.length >= 2.0 * shortest and not first.is_arc and not second.is_arc:
+            ends = np.array([first.start, second.end])
+            index = [int(np.argmin(np.hypot(*(target.points - end).T))) for end in ends]
+            middle = grid.snap(*target.points[(index[0] + index[1]) // 2])
+            halves = [Cut(*first.start, *middle), Cut(*middle, *second.end)]
+            if all(cut.length >= shortest for cut in halves):
+                return halves
+        return [Cut(first.x0, first.z0, second.x1, second.z1)]
+
     # ------------------------------------------------------------------ writing
 
     def _flush(self, window: list[Entry]) -> Iterator[str]:
@@ -443,44 +457,65 @@ class Rewriter:
             result = plan(target, limits, settings.mode)
         except PlanError as exc:
             raise SafetyError(f"block cannot be compensated within tolerance: {exc}", where) from None
-        result = self._keep_long(result, target, limits, self._shortest(step, result.cuts), where)
+        result = self._keep_long(result, target, limits, self._length_rule(step, result.cuts), where)
         self.worst = max(self.worst, result.deviation)
         return result
 
-    def _shortest(self, step: Step, cuts: list[Cut]) -> float:
-        """The shortest block the control's look-ahead digests at this feed (mm)."""
-        move = next((m for m in step.moves if m.kind in (LINE, ARC)), None)
-        if move is None or move.feed is None:
-            return 0.0
-        feed = move.feed
-        if move.per_rev:
-            x = min(min(abs(c.x0), abs(c.x1)) for c in cuts)
-            feed *= step.modal.rpm(x, self.settings.max_spindle_rpm)
-        return feed * self.settings.min_block_time_s / 60.0
+    def _length_rule(self, step: Step, cuts: list[Cut]):
+        """How long each block must be, and why: ``rule(cuts, i) -> (mm, reason)``.
 
-    def _keep_long(self, result: Plan, target: Target, limits: Limits, shortest: float, where: Location) -> Plan:
-        """Merge blocks shorter than the look-ahead digests; widen with a warning, or refuse."""
+        The control's look-ahead starves on blocks shorter than its minimum block time at the
+        feed. Under G41/G42 the control shortens each block's offset path by r tan(phi/2) at a
+        corner turning by phi (r the nose radius); a block shorter than what its two corners
+        take away turns back, and the interference check alarms.
+        """
+        move = next((m for m in step.moves if m.kind in (LINE, ARC)), None)
+        lookahead = 0.0
+        if move is not None and move.feed is not None:
+            feed = move.feed
+            if move.per_rev:
+                x = min(min(abs(c.x0), abs(c.x1)) for c in cuts)
+                feed *= step.modal.rpm(x, self.settings.max_spindle_rpm)
+            lookahead = feed * self.settings.min_block_time_s / 60.0
+        comp = move.comp if move is not None and move.comp in (41, 42) else None
+        nose = self.settings.nose_radius
+
+        def rule(cuts: list[Cut], i: int) -> tuple[float, str]:
+            need, why = lookahead, "the minimum block time at this feed"
+            if comp is not None and nose > 0:
+                taken = nose * (_half_turn(cuts, i - 1, i) + _half_turn(cuts, i, i + 1))
+                if taken > need:
+                    need = taken
+                    why = f"under G{comp} the nose radius offset of a shorter block turns back: interference alarm"
+            return need, why
+
+        return rule
+
+    def _keep_long(self, result: Plan, target: Target, limits: Limits, rule, where: Location) -> Plan:
+        """Merge blocks shorter than the rule allows; widen with a warning, or refuse."""
         cuts = list(result.cuts)
-        if shortest <= 0.0 or len(cuts) < 2 or all(cut.length >= shortest for cut in cuts):
+        if len(cuts) < 2 or all(cut.length >= rule(cuts, i)[0] for i, cut in enumerate(cuts)):
             return result
         segmenter = Segmenter(target, limits)
+        shortest, reason = 0.0, ""
         while len(cuts) > 1:
-            short = [i for i, cut in enumerate(cuts) if cut.length < shortest]
+            short = [i for i, cut in enumerate(cuts) if cut.length < rule(cuts, i)[0]]
             if not short:
                 break
             i = short[0]
+            shortest, reason = rule(cuts, i)
             j = i - 1 if i == len(cuts) - 1 or (i > 0 and cuts[i - 1].length < cuts[i + 1].length) else i + 1
             a, b = sorted((i, j))
-            cuts[a : b + 1] = [Cut(cuts[a].x0, cuts[a].z0, cuts[b].x1, cuts[b].z1)]
+            cuts[a : b + 1] = self._rebalanced(cuts[a], cuts[b], target, limits.grid, shortest)
         deviation = segmenter.measure(cuts)
         tolerance = limits.tolerance
         if deviation > 2.0 * tolerance:
             raise SafetyError(
-                f"blocks shorter than {shortest * 1000:.1f} um (the minimum block time at this feed) are needed to keep "
-                f"within {tolerance * 1000:.2f} um; merging them would leave {deviation * 1000:.2f} um", where)
+                f"blocks shorter than {shortest * 1000:.1f} um ({reason}) are needed to keep within "
+                f"{tolerance * 1000:.2f} um; merging them would leave {deviation * 1000:.2f} um", where)
         if deviation > tolerance:
             self.reporter.warn(
-                f"blocks merged to keep them longer than {shortest * 1000:.1f} um (minimum block time at this feed): "
+                f"blocks merged to keep them longer than {shortest * 1000:.1f} um ({reason}): "
                 f"tolerance widened to {deviation * 1000:.2f} um here", where)
         return Plan(cuts, deviation, result.method + "+merged", widened=deviation > tolerance)
 
@@ -573,6 +608,26 @@ def _cut_of(move: Move) -> Cut:
     if move.kind == ARC:
         return Cut(move.x0, move.z0, move.x1, move.z1, move.xc, move.zc, move.cw)
     return Cut(move.x0, move.z0, move.x1, move.z1, rapid=move.kind == RAPID)
+
+
+def _half_turn(cuts: list[Cut], a: int, b: int) -> float:
+    """tan(phi / 2) of the turn phi from block a into block b (0 outside the list)."""
+    if a < 0 or b >= len(cuts):
+        return 0.0
+    t1 = _tangent(cuts[a], end=True)
+    t2 = _tangent(cuts[b], end=False)
+    phi = abs(math.atan2(t1[0] * t2[1] - t1[1] * t2[0], t1[0] * t2[0] + t1[1] * t2[1]))
+    return math.tan(min(phi, 3.0) / 2.0)
+
+
+def _tangent(cut: Cut, end: bool) -> tuple[float, float]:
+    if not cut.is_arc:
+        length = cut.length or 1.0
+        return ((cut.x1 - cut.x0) / length, (cut.z1 - cut.z0) / length)
+    x, z = (cut.x1, cut.z1) if end else (cut.x0, cut.z0)
+    rx, rz = x - cut.xc, z - cut.zc
+    norm = math.hypot(rx, rz) or 1.0
+    return (-rz / norm, rx / norm) if cut.cw else (rz / norm, -rx / norm)
 
 
 def _monotone(cuts: list[Cut], axis: int) -> int:

@@ -24,7 +24,7 @@ centre, normally to a line; both are upper bounds of the true distance).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
@@ -430,7 +430,7 @@ class Segmenter:
         A vertex stands outside the target by nearly the tolerance; where rounding leaves one
         so far out that no chord can leave it, the chord before is redone ending on the target.
         """
-        offset = max(self.tol - 0.55 * self.grid.rounding_error, 0.0) * 0.92
+        offset = self.stand_off
         cuts: list[Cut] = []
         starts: list[tuple[int, float]] = []  # (sample a chord starts at, how far its end stands off)
         i, start, stand_off = 0, self._vertex(0), offset
@@ -451,6 +451,11 @@ class Segmenter:
             starts.append((i, stand_off if j != self.last else 0.0))
             start, i, stand_off = cut.end, j, offset
         return self._finish(cuts, "lines")
+
+    @property
+    def stand_off(self) -> float:
+        """How far outside the target a chord's vertex stands: nearly the tolerance, less rounding."""
+        return max(self.tol - 0.55 * self.grid.rounding_error, 0.0) * 0.92
 
     def _chord_maker(self, start: tuple[float, float], offset: float):
         def chord(i: int, j: int) -> Cut | None:

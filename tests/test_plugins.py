@@ -183,3 +183,35 @@ def test_postproc_measurement_readers_come_before_the_built_in_ones(run, tmp_pat
         assert result.exit_code == 0 and "G03 X114.29 Z0. I0. K-57.145" in result.stdout
     finally:
         manager.unregister(plugin)
+
+
+class _Hangs(_Raises):
+    """Never returns."""
+
+    name = "test-hangs"
+
+    def correct(self, piece):
+        while True:
+            pass
+
+
+class _Slow:
+    @hookspecs.hookimpl
+    def postproc_compensators(self):
+        return [_Hangs]
+
+
+def test_a_plugin_that_hangs_is_stopped_and_named(run, tmp_path):
+    manager = registry.manager()
+    plugin = _Slow()
+    manager.register(plugin, name="slow-test-plugin")
+    try:
+        machine = tmp_path / "m.toml"
+        machine.write_text("plugin_time_limit_s = 0.5\n")
+        target = tmp_path / "out.nc"
+        result = run("compensate", HEMISHELL, "--plugin", "test-hangs", "--machine", str(machine), "-o", str(target))
+        assert result.exit_code == 5
+        assert "plugin 'test-hangs': correct took longer than 0.5 s" in result.stderr
+        assert not target.exists()
+    finally:
+        manager.unregister(plugin)

@@ -205,3 +205,28 @@ def test_a_cycle_contour_that_would_turn_back_is_refused():
     assert "one way in Z" in info.value.message and "line 4" in info.value.message
     out, _ = rewrite(text, radial(-0.003), tolerance=0.001)  # inwards keeps Z running one way
     assert "N20" in out
+
+
+def test_no_block_under_cutter_compensation_turns_back_under_the_nose_radius():
+    """Under G42 the control shortens each block's offset by r tan(phi/2) at each corner; no block
+    may be shorter than what its corners take away (the interference check would alarm)."""
+    text = "G18 G21 G99 F0.1 S500\nG00 X0. Z6.\nG42 G01 Z5.\nG02 X10. Z0. R5.\nG40 G00 X20.\n"
+    with Source.from_text(text, "t.nc") as source:
+        rewriter = Rewriter(interpret_source(source), radial(0.002), Settings(mode="line", tolerance=0.002,
+                            min_block_time_s=0.0, nose_radius=0.8), Reporter(), "t.nc")
+        out = "".join(rewriter.run())
+    chords = [m for m in moves(out) if m.line >= 4 and m.kind == "line"][:-1]
+    for before, block, after in zip(chords, chords[1:], chords[2:]):
+        turns = [abs(math.atan2(a[0] * b[1] - a[1] * b[0], a[0] * b[0] + a[1] * b[1])) for a, b in
+                 ((_direction(before), _direction(block)), (_direction(block), _direction(after)))]
+        assert math.hypot(block.x1 - block.x0, block.z1 - block.z0) >= 0.8 * sum(math.tan(t / 2) for t in turns)
+    with pytest.raises(SafetyError) as info:  # a nose so large the chords cannot be long enough
+        with Source.from_text(text, "t.nc") as source:
+            "".join(Rewriter(interpret_source(source), radial(0.002), Settings(mode="line", tolerance=0.001,
+                             min_block_time_s=0.0, nose_radius=20.0), Reporter(), "t.nc").run())
+    assert "interference" in info.value.message
+
+
+def _direction(move):
+    length = math.hypot(move.x1 - move.x0, move.z1 - move.z0)
+    return ((move.x1 - move.x0) / length, (move.z1 - move.z0) / length)
