@@ -1,0 +1,79 @@
+"""``postproc probe-program PROGRAM``: a FANUC probing program (macro B) for a program's profile.
+
+N touches spread along the nominal profile (the profile and its material side as
+``postproc simulate probe`` picks them), each a skip move (G31) along the nominal normal
+into the material from ``--clearance`` outside; the latched positions are printed with
+DPRNT in the format ``postproc probe-import`` reads (:mod:`postproc.probe_printout`), with
+a datum touched before and after the profile when ``--datum-x/--datum-z`` give one. How the
+program moves and what it assumes: :mod:`postproc.probe_cycle`. The program goes to ``-o
+FILE`` or stdout; a one-line summary and any warning to stderr.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from ..diagnostics import Location, Reporter, UsageError
+from ..output import STDOUT, write_atomically
+from ..probe_cycle import DATUM_SURFACES, Cycle, code_digits, plan, self_check
+from ..profile import DEFAULT, load
+from ..simulator.nominal import MATERIAL, nominal, read_program
+
+DEFAULTS = Cycle()
+
+
+@click.command("probe-program")
+@click.argument("program", default="-")
+@click.option("--points", type=int, default=DEFAULTS.points, show_default=True, metavar="N",
+              help="Touches spread evenly along the profile.")
+@click.option("--from-line", type=int, metavar="L", help="Profile: moves from this source line.")
+@click.option("--to-line", type=int, metavar="L", help="Profile: moves up to this source line.")
+@click.option("--material", type=click.Choice(MATERIAL), default="axis", show_default=True,
+              help="Which side of the profile is material: towards the spindle axis, or left/right of the "
+                   "direction of travel.")
+@click.option("--inset", type=float, default=DEFAULTS.inset, show_default=True, metavar="MM",
+              help="Keep the touches this far (along the profile) from both ends of the stretch.")
+@click.option("--stylus-radius", type=float, default=DEFAULTS.stylus_radius, show_default=True, metavar="MM")
+@click.option("--clearance", type=float, default=DEFAULTS.clearance, show_default=True, metavar="MM",
+              help="Each approach starts this far from the nominal surface.")
+@click.option("--overtravel", type=float, metavar="MM",
+              help="How far beyond the nominal surface the skip move aims (default: the clearance).")
+@click.option("--feed", type=float, default=DEFAULTS.feed, show_default=True, metavar="MM/MIN",
+              help="Probing feed of the skip moves (calibrate at the same feed).")
+@click.option("--travel-feed", type=float, default=DEFAULTS.travel_feed, show_default=True, metavar="MM/MIN",
+              help="Feed of the moves near the part.")
+@click.option("--datum-x", type=float, metavar="MM", help="Datum point x (radius), with --datum-z.")
+@click.option("--datum-z", type=float, metavar="MM", help="Datum point z, with --datum-x.")
+@click.option("--datum-on", type=click.Choice(DATUM_SURFACES), default="face", show_default=True,
+              help="The datum point lies on a face (touched from +Z), a diameter (from +X), or both (a corner).")
+@click.option("--tool", metavar="TNNNN", help="Select the probe with this T code (e.g. T0909).")
+@click.option("--probe-on", metavar="MNN", help="M code that switches the probe on.")
+@click.option("--probe-off", metavar="MNN", help="M code that switches the probe off.")
+@click.option("--program-number", type=int, default=DEFAULTS.program_number, show_default=True, metavar="N")
+@click.option("--machine", metavar="FILE", help="A machine profile (TOML): G-code system, diameter mode, limits.")
+@click.option("-o", "--output", "output", default=STDOUT, metavar="FILE", help="Write the program here.")
+def command(program, points, from_line, to_line, material, inset, stylus_radius, clearance, overtravel, feed,
+            travel_feed, datum_x, datum_z, datum_on, tool, probe_on, probe_off, program_number, machine, output):
+    """Write a FANUC probing program (G31, DPRNT) for the profile of a part program."""
+    if (datum_x is None) != (datum_z is None):
+        raise UsageError("a datum is a point: give --datum-x and --datum-z together")
+    profile = load(machine) if machine else DEFAULT
+    reporter = Reporter(sys.stderr)
+    name, moves = read_program(program, profile, reporter)
+    cycle = Cycle(points, stylus_radius, clearance, overtravel, feed, travel_feed, program_number, inset,
+                  None if datum_x is None else (datum_x, datum_z), datum_on, code_digits(tool, "T"),
+                  code_digits(probe_on, "M"), code_digits(probe_off, "M"))
+    planned = plan(moves, nominal(moves, from_line, to_line, material, name), cycle, profile)
+    self_check(planned, profile)
+    if tool is None:
+        reporter.warn("no --tool: the probing program selects no tool; index the probe before it runs",
+                      Location(name))
+    write_atomically(output, planned.text.encode())
+    reporter.close()
+    datums = len(planned.touches) - len(planned.points)
+    first, last = planned.lines
+    click.echo(f"{name}: probing program O{program_number:04d}: {len(planned.points)} points on lines {first}-{last}"
+               f"{f', {datums} datum touches' if datums else ''}; read its printout with 'postproc probe-import'",
+               err=True)
