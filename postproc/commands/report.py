@@ -1,0 +1,79 @@
+"""``postproc report [PROGRAM] [measurements...] -o report.html``: one self-contained HTML report.
+
+The measurement options are those of ``compensate`` (``--plugin``, ``--ballbar``, ``--probe``,
+``--calibration``, ``--model``, ``--option``, ``--machine``, ``--tolerance``). The report shows
+the measurements, the ISO 230-4 figures and the fitted models with their uncertainty, the
+profile of PROGRAM predicted before and after compensation, the four figures of each, and
+the provenance (:mod:`postproc.report`). Without PROGRAM it covers the measurements and the
+models; without a compensator, the measurements alone. The file is written all or nothing
+(stdout without ``-o``); errors are raised as PostprocError for the command line to report.
+"""
+
+from __future__ import annotations
+
+import shlex
+import sys
+
+import click
+
+from ..diagnostics import Reporter, UsageError
+from ..output import STDOUT, write_atomically
+
+
+@click.command("report")
+@click.argument("program", required=False, metavar="[PROGRAM]")
+@click.option("-o", "--output", "output", default=STDOUT, metavar="FILE", help="Write the report here (HTML).")
+@click.option("--plugin", "plugins", multiple=True, metavar="NAME", help="A compensator to fit and report, in order.")
+@click.option("--ballbar", multiple=True, metavar="FILE", help="A ballbar trace.")
+@click.option("--probe", multiple=True, metavar="FILE", help="Probe points.")
+@click.option("--calibration", metavar="FILE", help="A probe calibration on an artifact.")
+@click.option("--model", metavar="FILE", help="A saved compensation model.")
+@click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
+@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
+@click.option("--tolerance", type=float, metavar="MM", help="Largest deviation of the emitted path.")
+def command(program, output, plugins, ballbar, probe, calibration, model, options, machine, tolerance):
+    """An HTML report: measurements, ISO figures, fitted models, predicted profile, provenance."""
+    from .. import profile as profiles
+    from ..pipeline import Request
+    from ..report.html import render
+    from ..report.sections import Inputs, build
+    from ..source import Source
+
+    if options and not plugins and not model:
+        raise UsageError("--option was given but no compensator (--plugin) to take it")
+    if not (program or plugins or model or ballbar or probe or calibration):
+        raise UsageError("nothing to report on: give a program, measurements or a compensator")
+    reporter = Reporter(sys.stderr)
+    loaded = None
+    if program is not None:
+        with Source(program) as source:
+            loaded = (source.name, source.read_bytes())
+    request = Request(list(plugins), list(ballbar), list(probe), calibration, model, list(options), tolerance)
+    profile = profiles.load(machine) if machine else profiles.DEFAULT
+    inputs = Inputs(loaded, request, machine, profile, _command_line(program, output, request, machine))
+    document = build(inputs, reporter)
+    write_atomically(output, render(document, "Made by postproc report; self-contained: no external resources.").encode())
+    reporter.close()
+    if output != STDOUT:
+        images = sum(1 for _ in _images(document.sections))
+        click.echo(f"{output}: report written ({len(document.sections)} sections, {images} figures)", err=True)
+
+
+def _images(sections):
+    from ..report.document import Image
+
+    for section in sections:
+        yield from (part for part in section.parts if isinstance(part, Image))
+        yield from _images(section.subsections)
+
+
+def _command_line(program, output, request, machine) -> str:
+    words = ["postproc", "report"] + ([program] if program else [])
+    for flag, values in (("--plugin", request.plugins), ("--ballbar", request.ballbar), ("--probe", request.probe),
+                         ("--calibration", [request.calibration] if request.calibration else []),
+                         ("--model", [request.model] if request.model else []), ("--option", request.options),
+                         ("--machine", [machine] if machine else []),
+                         ("--tolerance", [f"{request.tolerance:g}"] if request.tolerance is not None else [])):
+        for value in values:
+            words += [flag, value]
+    return shlex.join(words + ["-o", output])

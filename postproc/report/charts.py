@@ -1,0 +1,154 @@
+"""The report's figures, rendered to PNG in memory.
+
+The ballbar plots are :mod:`postproc.plotting`'s own (the polar trace plot, deviation against
+angle), so the report shows what ``postproc ballbar --plot`` draws; the profile plots are
+drawn here the same way (matplotlib's object API, imported on use, no pyplot). Deviations are
+plotted in micrometres against theta or the arc length along the profile. A legend label
+may hold a file name: it is drawn literally (``$`` escaped, so mathtext never parses it).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import struct
+import tempfile
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..measurements.ballbar import BallbarTrace
+from .document import Image
+
+DPI = 100
+
+
+def png_image(png: bytes, alt: str, caption: str = "") -> Image:
+    """An Image of PNG bytes, its pixel size read from the IHDR chunk."""
+    if png[:8] != b"\x89PNG\r\n\x1a\n":
+        raise ValueError("not a PNG")
+    width, height = struct.unpack(">II", png[16:24])
+    return Image(png, width, height, alt, caption)
+
+
+def _through_file(draw, *args) -> bytes:
+    """Run one of postproc.plotting's functions, which write a file, and keep the bytes."""
+    with tempfile.TemporaryDirectory(prefix="postproc-report-") as folder:
+        path = os.path.join(folder, "figure.png")
+        draw(*args, path)
+        with open(path, "rb") as handle:
+            return handle.read()
+
+
+def _png(figure) -> bytes:
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=DPI)
+    return buffer.getvalue()
+
+
+def _figure(width: float = 8.0, height: float = 4.2):
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
+    return figure, figure.add_subplot()
+
+
+def polar(traces: Sequence[BallbarTrace], caption: str) -> Image:
+    """The traces about the nominal circle, magnified (postproc.plotting.plot_traces)."""
+    from ..plotting import plot_traces
+
+    return png_image(_through_file(plot_traces, list(traces)), "polar plot of the ballbar traces", caption)
+
+
+def against_angle(series: Sequence[tuple[str, np.ndarray, np.ndarray]], caption: str) -> Image:
+    """Deviation (um) against theta; ``series`` are (label, angles_deg, deviations_mm)."""
+    from ..plotting import plot_deviation_vs_angle
+
+    ordered = [(label, *_by_angle(angles, values)) for label, angles, values in series]
+    return png_image(_through_file(plot_deviation_vs_angle, ordered), "ballbar deviation against angle", caption)
+
+
+def _by_angle(angles: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    order = np.argsort(angles)
+    return np.asarray(angles)[order], np.asarray(values)[order]
+
+
+def probe_deviations(s: np.ndarray, measured: np.ndarray, cleaned: np.ndarray, kept: np.ndarray, caption: str) -> Image:
+    """Probed deviations along the profile: as measured, the dropped ones marked, and as cleaned."""
+    figure, axes = _figure()
+    order = np.argsort(s)
+    s, measured, cleaned, kept = s[order], measured[order] * 1000.0, cleaned[order] * 1000.0, kept[order]
+    axes.plot(s, cleaned, "-", color="tab:blue", linewidth=1.0, label="cleaned (drives compensation)")
+    axes.plot(s[kept], measured[kept], "o", color="tab:blue", markersize=3.5, label="measured")
+    if not kept.all():
+        axes.plot(s[~kept], measured[~kept], "x", color="tab:red", markersize=7, label="dropped (nub or outlier)")
+    _deviation_axes(axes, "s, arc length along the profile (mm)")
+    return png_image(_png(figure), "probed deviation against arc length", caption)
+
+
+def touched_points(points: np.ndarray, caption: str) -> Image:
+    """Touched points in the XZ plane, seen from +Y: Z to the right, X up."""
+    figure, axes = _figure(6.0, 4.5)
+    axes.plot(points[:, 1], points[:, 0], "o", markersize=3.5, color="tab:blue")
+    axes.set_xlabel("z (mm)")
+    axes.set_ylabel("x (radius mm)")
+    axes.set_aspect("equal", adjustable="datalim")
+    axes.grid(True, linewidth=0.3)
+    return png_image(_png(figure), "touched points in the XZ plane", caption)
+
+
+def calibration(theta: np.ndarray, k: np.ndarray, curve: tuple[np.ndarray, np.ndarray], caption: str) -> Image:
+    """Pretravel k at each calibration touch, and the fitted model."""
+    figure, axes = _figure()
+    axes.plot(theta, k * 1000.0, "o", markersize=3.5, color="tab:blue", label="k at each touch")
+    axes.plot(curve[0], curve[1] * 1000.0, "-", color="tab:orange", linewidth=1.2, label="fitted model")
+    axes.set_xlabel("theta of the surface normal (deg, from +X towards +Z)")
+    axes.set_ylabel("k (um)")
+    axes.grid(True, linewidth=0.3)
+    axes.legend(fontsize="small")
+    return png_image(_png(figure), "probe pretravel against direction", caption)
+
+
+def along_profile(lines: Sequence[tuple[str, np.ndarray, np.ndarray, str]], caption: str) -> Image:
+    """Deviations along the profile; ``lines`` are (label, s_mm, deviation_mm, style)."""
+    figure, axes = _figure()
+    for label, s, deviation, style in lines:
+        axes.plot(s, np.asarray(deviation) * 1000.0, style, label=_literal(label), linewidth=1.1, markersize=3.5)
+    _deviation_axes(axes, "s, arc length along the profile (mm)")
+    return png_image(_png(figure), "predicted deviation along the profile", caption)
+
+
+def profile_shape(points: np.ndarray, shapes: Sequence[tuple[str, np.ndarray, np.ndarray, np.ndarray, str]],
+                  caption: str) -> Image:
+    """The nominal profile (``points`` along it) and deviated ones, magnified along the normal.
+
+    ``shapes`` are (label, points, outward normals, deviation_mm at each point, style); NaN
+    leaves a gap.
+    """
+    figure, axes = _figure(6.4, 5.6)
+    axes.plot(points[:, 1], points[:, 0], "-", color="grey", linewidth=0.9, label="nominal")
+    largest = max((float(np.nanmax(np.abs(d))) for *_, d, _ in shapes if np.any(np.isfinite(d))), default=0.0)
+    extent = float(np.ptp(points, axis=0).max()) or 1.0
+    magnification = 0.08 * extent / largest if largest > 0 else 1.0
+    for label, where, normals, deviation, style in shapes:
+        shown = where + (np.asarray(deviation) * magnification)[:, None] * normals
+        axes.plot(shown[:, 1], shown[:, 0], style, linewidth=1.1, markersize=3.5, label=_literal(label))
+    axes.set_xlabel("z (mm)")
+    axes.set_ylabel("x (radius mm)")
+    axes.set_aspect("equal", adjustable="datalim")
+    axes.grid(True, linewidth=0.3)
+    axes.legend(fontsize="small")
+    axes.set_title(f"deviation magnified \u00d7{magnification:,.0f} along the normal", fontsize="medium")
+    return png_image(_png(figure), "nominal profile and the predicted profiles", caption)
+
+
+def _literal(label: str) -> str:
+    return label.replace("$", r"\$")
+
+
+def _deviation_axes(axes, xlabel: str) -> None:
+    axes.axhline(0.0, color="grey", linewidth=0.8)
+    axes.set_xlabel(xlabel)
+    axes.set_ylabel("deviation (um), + = material left")
+    axes.grid(True, linewidth=0.3)
+    axes.legend(fontsize="small")

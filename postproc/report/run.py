@@ -1,0 +1,262 @@
+"""Everything a report draws on, gathered once: what was asked, read, fitted, compensated and predicted.
+
+:func:`gather` runs the steps in order:
+
+1. the compensators, fitted (or the saved model loaded) exactly as ``compensate`` does, so
+   their errors and warnings are the same;
+2. the measurements, read again for the report (quietly when the compensators have read them
+   and warned already), the probe calibration fitted;
+3. the ballbar traces' ISO 230-4 figures and parametric diagnosis (one trace, or the ccw and
+   cw traces of one test: of several, the first of each direction);
+4. the program: its profile, the probe points against it, the compensated program exactly
+   as ``compensate`` writes it (a compensation refused for safety or by a compensator is kept
+   as the reason, not raised), and the prediction on the virtual lathe (:mod:`.prediction`).
+
+A program or measurement that cannot be read raises, with the command line's message and
+exit code.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import os
+import tempfile
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..ballbar_analysis import CircularTest, Diagnosis, circular_test, diagnose
+from ..diagnostics import EXIT_BAD_INPUT, EXIT_REFUSED, MeasurementError, PostprocError, Reporter, SafetyError
+from ..figures import Figures, figures
+from ..measurements.ballbar import BallbarTrace, pair
+from ..measurements.probe import CalibrationRun, ProbeFile
+from ..measurements.registry import ReadContext, read as read_measurement
+from ..output import Spool
+from ..pipeline import Request
+from ..probing import ProbedProfile, probe_profile
+from ..profile import MachineProfile
+from ..source import Source
+from . import prediction, provenance
+
+if TYPE_CHECKING:
+    from ..api import Pipeline, Summary
+    from ..pretravel import CalibrationModel
+
+KINDS = (("ballbar", "ballbar trace"), ("probe", "probe points"), ("calibration", "probe calibration"))
+
+
+@dataclass
+class Inputs:
+    """What the user asked for: ``postproc report``'s arguments."""
+
+    program: tuple[str, bytes] | None  #: name and content
+    request: Request
+    machine: str | None  #: the machine profile's file
+    profile: MachineProfile
+    command: str  #: the command line, for the provenance
+
+
+@dataclass
+class Probed:
+    """A probe file, and against the program's profile when there is one."""
+
+    probe: ProbeFile
+    profile: ProbedProfile | None
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass
+class Run:
+    """Everything the sections draw on."""
+
+    inputs: Inputs
+    reporter: Reporter
+    pipeline: Pipeline | None = None  #: when a compensator or a model was given
+    traces: list[BallbarTrace] = field(default_factory=list)
+    probes: list[Probed] = field(default_factory=list)
+    calibrations: list[CalibrationRun] = field(default_factory=list)
+    calibration: CalibrationModel | None = None
+    program: prediction.Program | None = None
+    compensated: prediction.Program | None = None
+    summary: Summary | None = None  #: of the compensation
+    refused: str | None = None  #: why the program could not be compensated
+    test: CircularTest | None = None  #: ISO 230-4 figures
+    diagnosis: Diagnosis | None = None
+    machine: prediction.Machine | None = None  #: the diagnosis as a virtual lathe
+    prediction: prediction.Prediction | None = None  #: along the program's profile
+    when: dt.datetime = field(default_factory=provenance.moment)  #: the report's time
+    figures: list[tuple[str, Figures]] = field(default_factory=list)  #: (what, the four figures)
+    notes: list[str] = field(default_factory=list)  #: for the warnings section
+
+    def figure(self, label: str, deviations_mm) -> Figures | None:
+        """The four figures of deviations (NaN left out), kept for the report's table."""
+        values = np.asarray(deviations_mm, dtype=float)
+        values = values[np.isfinite(values)]
+        if values.size == 0:
+            return None
+        result = figures(values)
+        self.figures.append((label, result))
+        return result
+
+    def probe_prediction(self, probed: Probed) -> tuple[np.ndarray, np.ndarray | None, float]:
+        """The probed error the next pass repeats (screened, minus the stock of the probed pass),
+        what the emitted correction makes of it, and the stock."""
+        stock = self.stock()
+        before = probed.profile.cleaned - stock
+        result = self.prediction
+        if result is None or result.correction is None:
+            return before, None, stock
+        deviations = probed.profile.deviations
+        moved = prediction.read_surface(prediction.surface(self.compensated), deviations.nearest.foot,
+                                        deviations.outward)
+        # a touch on the spindle axis has no crossing when the path crosses the axis: use the stations' curve
+        missing, known = ~np.isfinite(moved), np.isfinite(result.correction)
+        if missing.any() and known.any():
+            moved[missing] = np.interp(deviations.nearest.s[missing], result.stations.s[known],
+                                       result.correction[known])
+        return before, before + moved, stock
+
+    def stock(self) -> float:
+        """formats.md: ``--option stock=MM``, how far outside this profile the probed pass was cut."""
+        if self.pipeline is None:
+            return 0.0
+        for settings in self.pipeline.core.settings.values():
+            if isinstance(settings.get("stock"), (int, float)):
+                return float(settings["stock"])
+        return 0.0
+
+
+def gather(inputs: Inputs, reporter: Reporter) -> Run:
+    """Fit, read, analyse, compensate and predict."""
+    run = Run(inputs, reporter)
+    _fit(run)
+    _read(run)
+    _analyse(run)
+    _program(run)
+    _predict(run)
+    return run
+
+
+def _fit(run: Run) -> None:
+    request = run.inputs.request
+    if request.plugins or request.model:
+        from ..api import Pipeline
+
+        run.pipeline = Pipeline(request.plugins, request.ballbar, request.probe, request.calibration, request.model,
+                                request.options, request.tolerance, "auto", run.inputs.profile,
+                                reporter=run.reporter)
+
+
+def _read(run: Run) -> None:
+    """The measurements, read again for the report (quietly when the pipeline already warned)."""
+    from ..plugins import readers
+
+    request = run.inputs.request
+    context = ReadContext(Reporter() if run.pipeline is not None else run.reporter)
+    found = readers()
+    run.traces = [read_measurement(path, "ballbar", found, context) for path in request.ballbar]
+    probes = [read_measurement(path, "probe", found, context) for path in request.probe]
+    run.calibrations = [read_measurement(request.calibration, "calibration", found, context)] if request.calibration else []
+    if run.calibrations:
+        from ..pretravel import fit_calibration
+
+        run.calibration = fit_calibration(run.calibrations)
+    run.probes = [Probed(probe, None) for probe in probes]
+
+
+def _program(run: Run) -> None:
+    """The program's profile, the compensated program, and the probe points against the profile."""
+    if run.inputs.program is None:
+        return
+    name, data = run.inputs.program
+    profile = run.inputs.profile
+    run.program = prediction.read_program(name, data, profile, run.reporter)
+    if run.program.nominal is None:
+        run.notes.append(f"{name}: no profile to predict or to compare the probe points with: {run.program.note}")
+    else:
+        for probed in run.probes:
+            probed.profile = _against_profile(run, probed)
+    if run.pipeline is None or run.program.nominal is None:
+        return
+    try:
+        text, run.summary = _compensate(run.pipeline, name, data)
+    except PostprocError as exc:
+        if exc.exit_code not in (EXIT_BAD_INPUT, EXIT_REFUSED):
+            raise
+        where = f"{exc.location.prefix()}: " if exc.location is not None else ""
+        run.refused = f"{where}{exc.message}"
+        run.notes.append(f"{name}: the program could not be compensated: {run.refused}")
+        return
+    run.compensated = prediction.read_program(f"{name} (compensated)", text, profile, Reporter(),
+                                              run.program.nominal.material)
+
+
+def _predict(run: Run) -> None:
+    """The profile before and after, from whatever there is to predict from."""
+    if run.program is None or run.program.nominal is None:
+        return
+    compensators = run.pipeline.core.compensators if run.pipeline is not None else None
+    run.prediction = prediction.predict(run.program, run.compensated, run.machine, compensators)
+
+
+def _compensate(pipeline, name: str, data: bytes):
+    """The compensated program, exactly as ``compensate`` writes it, and the run's summary."""
+    with tempfile.TemporaryDirectory(prefix="postproc-report-") as folder:
+        path = os.path.join(folder, "compensated.nc")
+        with Source.from_text(data, name) as source, Spool(path) as spool:
+            summary = pipeline.compensate_source(source, spool)
+            spool.commit()
+        with open(path, "rb") as handle:
+            return handle.read(), summary
+
+
+def _against_profile(run: Run, probed: Probed) -> ProbedProfile:
+    """The probe file's deviations from the profile; a moved datum is reported, not fatal."""
+    profile = run.program.nominal.profile
+    reporter = Reporter() if run.pipeline is not None else run.reporter  # a probe compensator has warned already
+    try:
+        return probe_profile(probed.probe, profile, run.calibration, reporter=reporter)
+    except SafetyError as exc:
+        probed.notes.append(f"{exc.message}: shown all the same")
+        run.notes.append(f"{probed.probe.path}: {exc.message}")
+        return probe_profile(probed.probe, profile, run.calibration, reporter=Reporter(), force=True)
+
+
+def _analyse(run: Run) -> None:
+    """ISO 230-4 figures and the parametric diagnosis of the ballbar test."""
+    if not run.traces:
+        return
+    test, notes = _test_traces(run)
+    run.notes += notes
+    if all(trace.full for trace in test):
+        try:
+            run.diagnosis = diagnose(test)
+        except MeasurementError as exc:
+            run.notes.append(f"no diagnosis: {exc.message}")
+    if run.diagnosis is not None:
+        run.machine = prediction.machine_of(run.diagnosis, test[0].centre)
+    try:
+        run.test = circular_test(test)
+    except MeasurementError as exc:
+        run.notes.append(f"no ISO 230-4 figures: {exc.message}")
+
+
+def _test_traces(run: Run) -> tuple[tuple[BallbarTrace, ...], list[str]]:
+    """The traces the ISO figures and the diagnosis are made of: one, or a ccw and a cw of one test."""
+    traces = run.traces
+    notes = []
+    if len(traces) > 2:
+        first = {}
+        for trace in traces:
+            first.setdefault(trace.direction, trace)
+        traces = list(first.values())
+        notes.append(f"{len(run.traces)} traces: the ISO figures and the diagnosis are of the first trace of each "
+                     "direction (later ones, such as an iterative run's residuals, are not the machine itself)")
+    if len(traces) == 1:
+        return (traces[0],), notes
+    try:
+        return pair(list(traces)), notes
+    except MeasurementError as exc:
+        notes.append(f"{exc.message}: the ISO figures and the diagnosis are of the first trace alone")
+        return (traces[0],), notes

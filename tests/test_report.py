@@ -1,0 +1,328 @@
+"""``postproc report``: one self-contained HTML file, its content, and every image rendered in a real browser."""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import html
+import io
+import json
+import os
+import re
+import signal
+import subprocess
+import time
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from conftest import SAMPLES
+from postproc import __version__, hookspecs
+from postproc import plugins as registry
+from postproc.cli import main
+from postproc.compensator import Compensator
+from postproc.figures import figures
+
+CHROMIUM = "/usr/bin/chromium"
+PROGRAM = SAMPLES / "programs" / "hemishell.nc"
+CCW = SAMPLES / "ballbar" / "v40r-100-ccw.csv"
+CW = SAMPLES / "ballbar" / "v40r-100-cw.csv"
+PROBE = SAMPLES / "probe" / "hemishell-pass1.csv"
+CALIBRATION = SAMPLES / "probe" / "artifact-calibration.csv"
+HOSTILE = 'ccw <b>&"\'.csv'  #: a file name that is also markup
+INJECTED = "<script>alert(1)</script>"
+FOUR = ("mean (um)", "mean |e| (um)", "RMS (um)", "sigma (um)")
+
+
+def _report(*args: str) -> tuple[int, str]:
+    result = CliRunner().invoke(main, ["report", *args], catch_exceptions=False)
+    return result.exit_code, result.stderr
+
+
+def _png() -> bytes:
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(2.0, 1.5))
+    figure.add_subplot().plot([0, 1, 2], [1, 0, 1])
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png")
+    return buffer.getvalue()
+
+
+class _ProbeShift(Compensator):
+    """Moves every feed move 5 um towards the spindle axis (a test's probe compensator)."""
+
+    name = "test-report-probe"
+    takes = ("probe", "calibration")
+    needs = ("probe",)
+
+    def fit(self, measurements):
+        self.files = [probe.path for probe in measurements.probe]
+
+    def correct(self, piece):
+        return np.tile([-0.005, 0.0], (len(piece.t), 1))
+
+    def report(self):
+        return {"parameters": {"shift_x_mm": {"value": -0.005, "sigma": 0.0002}, "count": 3},
+                "chains": [{"tool": 1, "residual_um": figures([0.001, -0.002, 0.0005]).as_dict()}],
+                "plot": _png(), "notes": ["first note", "second <i>note</i>"], "files": self.files}
+
+
+class _BrokenReport(_ProbeShift):
+    """A probe compensator whose report() fails."""
+
+    name = "test-report-broken"
+
+    def report(self):
+        raise RuntimeError("no report <today>")
+
+
+class _Plugin:
+    @hookspecs.hookimpl
+    def postproc_compensators(self):
+        return [_ProbeShift, _BrokenReport]
+
+
+@pytest.fixture(scope="module")
+def reports(tmp_path_factory) -> dict[str, Path]:
+    """The reports the tests read: written once."""
+    folder = tmp_path_factory.mktemp("reports")
+    hostile = folder / HOSTILE
+    text = CCW.read_text().replace("angle_deg,deviation_mm", f"# x-note = {INJECTED}\nangle_deg,deviation_mm", 1)
+    hostile.write_text(text)
+    made = {}
+    code, stderr = _report(str(PROGRAM), "--plugin", "parametric", "--ballbar", str(hostile), "--ballbar", str(CW),
+                           "-o", str(folder / "ballbar.html"))
+    assert code == 0, stderr
+    made["ballbar"] = folder / "ballbar.html"
+    code, stderr = _report("--plugin", "parametric", "--ballbar", str(CCW), "--ballbar", str(CW),
+                           "-o", str(folder / "model.html"))
+    assert code == 0, stderr
+    made["model"] = folder / "model.html"
+    manager = registry.manager()
+    plugin = _Plugin()
+    manager.register(plugin, name="report-test-plugin")
+    try:
+        code, stderr = _report(str(PROGRAM), "--plugin", "test-report-probe", "--plugin", "test-report-broken",
+                               "--probe", str(PROBE), "--calibration", str(CALIBRATION),
+                               "-o", str(folder / "probe.html"))
+    finally:
+        manager.unregister(plugin)
+    assert code == 0, stderr
+    made["probe"] = folder / "probe.html"
+    made["hostile"] = hostile
+    return made
+
+
+class _Tags(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.tags: list[tuple[str, dict[str, str]]] = []
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append((tag, {name: value or "" for name, value in attrs}))
+
+
+def _tags(text: str) -> list[tuple[str, dict[str, str]]]:
+    parser = _Tags()
+    parser.feed(text)
+    return parser.tags
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _table(text: str, key: str) -> str:
+    found = re.search(rf'<table id="{key}".*?</table>', text, re.S)
+    assert found, f"no table {key}"
+    return html.unescape(found.group(0))
+
+
+# ---------------------------------------------------------------- one file, nothing outside
+
+
+@pytest.mark.parametrize("which", ["ballbar", "model", "probe"])
+def test_the_report_is_one_file_with_no_external_reference(reports, which):
+    text = reports[which].read_text(encoding="utf-8")
+    tags = _tags(text)
+    images = [attrs for tag, attrs in tags if tag == "img"]
+    assert images
+    for attrs in images:
+        assert attrs["src"].startswith("data:image/png;base64,")
+        png = base64.b64decode(attrs["src"].split(",", 1)[1], validate=True)
+        assert png.startswith(b"\x89PNG\r\n\x1a\n")
+    for tag, attrs in tags:
+        assert tag not in ("script", "link", "iframe", "object", "embed", "base"), tag
+        for name in ("src", "href", "srcset", "action", "data", "poster"):
+            if name not in attrs:
+                continue
+            value = attrs[name]
+            assert not re.match(r"\s*(https?:)?//", value, re.I), (tag, name, value[:80])
+            if name == "href":
+                assert value.startswith("#"), value
+            if name == "src":
+                assert value.startswith("data:"), value[:80]
+    assert not re.search(r"https?://", re.sub(r'src="data:[^"]*"', "", text))
+    style = re.search(r"<style>(.*?)</style>", text, re.S).group(1)
+    assert "url(" not in style and "@import" not in style
+
+
+def test_it_is_written_atomically_and_a_failed_run_leaves_the_old_file(tmp_path):
+    target = tmp_path / "report.html"
+    target.write_text("old")
+    bad = tmp_path / "bad.csv"
+    bad.write_text("# postproc ballbar 1\n# radius_mm = 100\nangle_deg,deviation_mm\n0,0\n")
+    code, stderr = _report("--ballbar", str(bad), "-o", str(target))
+    assert code == 3 and "direction" in stderr
+    assert target.read_text() == "old" and sorted(p.name for p in tmp_path.iterdir()) == ["bad.csv", "report.html"]
+    code, _ = _report("--ballbar", str(CCW), "-o", str(tmp_path / "missing" / "report.html"))
+    assert code == 3 and not (tmp_path / "missing").exists()
+
+
+def test_usage_errors(tmp_path):
+    assert _report("-o", str(tmp_path / "r.html"))[0] == 2
+    code, stderr = _report("--ballbar", str(CCW), "--option", "extrapolate=true", "-o", str(tmp_path / "r.html"))
+    assert code == 2 and "--option" in stderr
+    assert not (tmp_path / "r.html").exists()
+
+
+# ---------------------------------------------------------------- content
+
+
+def test_the_four_figures_and_the_prediction_are_there(reports):
+    text = reports["ballbar"].read_text(encoding="utf-8")
+    four = _table(text, "four-figures")
+    for column in FOUR:
+        assert f"<th>{column}</th>" in four
+    for row in ("ballbar trace ccw", "ballbar trace cw", "ballbar diagnosis: traces minus model",
+                "parametric: fit_residual_um.both", "predicted: before (ballbar model)",
+                "predicted: after (ballbar model)", "predicted: correction as emitted"):
+        assert f"<td>{row}" in four, row
+    numbers = re.findall(r"<td>([+-]?\d+\.\d{3})</td>", four)
+    assert len(numbers) >= 4 * 7
+    prediction = _table(text, "prediction-figures")
+    assert "before (ballbar model)" in prediction and "after (ballbar model)" in prediction
+    iso = _table(text, "iso-230-4")
+    assert "G, circular deviation (ccw)" in iso and "H, circular hysteresis" in iso
+    plain = html.unescape(text)
+    assert "parametric: fitted parameters (1 sigma)" in plain and "scaling_x_plus" in plain
+    assert "Compensation: " in plain and "blocks replaced by" in plain
+    assert len(re.findall(r"<img ", text)) == 4  # polar, against angle, along the profile, the profile
+
+
+def test_provenance_lists_every_input_with_its_hash(reports):
+    text = reports["ballbar"].read_text(encoding="utf-8")
+    inputs = _table(text, "inputs")
+    for path in (PROGRAM, reports["hostile"], CW):
+        assert _sha256(path) in inputs, path
+    assert str(PROGRAM) in inputs and str(CW) in inputs
+    plain = html.unescape(text)
+    assert f"<td>postproc</td><td>{__version__}</td>" in plain
+    assert "fanuc-18i-t" in plain and "created (UTC)" in plain and "postproc report " in plain
+    assert re.search(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\+00:00", plain)
+
+
+def test_every_string_from_the_user_is_escaped(reports):
+    text = reports["ballbar"].read_text(encoding="utf-8")
+    assert "<script" not in text and "<b>" not in text
+    assert html.escape(INJECTED) in text
+    assert html.escape(HOSTILE, quote=True) in text
+
+
+def test_without_a_program_the_report_covers_measurements_and_model(reports):
+    text = html.unescape(reports["model"].read_text(encoding="utf-8"))
+    assert 'id="prediction"' not in text
+    assert "none: measurements and model only" in text
+    assert 'id="measurements"' in text and 'id="iso"' in text and 'id="model-parametric"' in text
+
+
+def test_probe_points_against_the_program_and_a_plugin_report_of_any_shape(reports):
+    text = reports["probe"].read_text(encoding="utf-8")
+    plain = html.unescape(text)
+    assert "dropped as the nub at the pole" in plain
+    assert "pretravel model" in plain and 'id="calibration"' in plain
+    prediction = _table(text, "prediction-figures")
+    assert "before (probed, hemishell-pass1.csv)" in prediction and "after (probed, hemishell-pass1.csv)" in prediction
+    emitted = re.search(r"<td>correction as emitted</td><td>([+-]\d+\.\d+)</td>", prediction)
+    assert emitted and -10.0 < float(emitted.group(1)) < 0.0  # 2 x 5 um towards the axis, along the arc's normal
+    four = _table(text, "four-figures")
+    assert "test-report-probe: chains[1].residual_um" in four
+    assert "<td>shift_x_mm</td><td>-5</td><td>0.2</td><td>um</td>" in text  # mm shown in um
+    assert "second <i>note</i>" in plain and "<i>note</i>" not in text
+    assert "test-report-broken: report() failed: RuntimeError: no report <today>" in plain
+    assert len(re.findall(r"<img ", text)) == 5  # probe deviations, calibration, the plugin's plot, 2 predictions
+
+
+# ---------------------------------------------------------------- a real browser
+
+
+PROBE_SCRIPT = """<script>
+window.addEventListener('load', function () {
+  var sizes = [];
+  for (var i = 0; i < document.images.length; i++) {
+    var img = document.images[i], box = img.getBoundingClientRect();
+    sizes.push({complete: img.complete, natural: [img.naturalWidth, img.naturalHeight], shown: [box.width, box.height]});
+  }
+  var out = document.createElement('pre');
+  out.id = 'image-sizes';
+  out.textContent = JSON.stringify(sizes);
+  document.body.appendChild(out);
+});
+</script>
+"""
+
+
+def _rendered_sizes(report: Path, folder: Path) -> list[dict]:
+    """Open a copy of the report (with a script that writes each image's size into the DOM) in
+    headless Chromium and read the sizes back from the dumped DOM."""
+    copy = folder / f"{report.stem}-probed.html"
+    copy.write_text(report.read_text(encoding="utf-8").replace("</body>", PROBE_SCRIPT + "</body>"), encoding="utf-8")
+    profile = folder / f"{report.stem}-chromium-profile"
+    command = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+               "--disable-background-networking", "--disable-component-update", "--disable-sync",
+               "--disable-dev-shm-usage", f"--user-data-dir={profile}", "--virtual-time-budget=10000",
+               "--dump-dom", copy.resolve().as_uri()]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        dom, errors = process.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)  # the browser and the helpers it started, nothing else
+        process.communicate()
+        pytest.fail(f"chromium did not finish within 120 s: {' '.join(command)}")
+    found = re.search(rb'<pre id="image-sizes">(.*?)</pre>', dom, re.S)
+    assert found, f"chromium (exit {process.returncode}) dumped no image sizes: {errors.decode(errors='replace')[-2000:]}"
+    return json.loads(html.unescape(found.group(1).decode()))
+
+
+def test_every_image_renders_with_a_size_in_chromium(reports, tmp_path):
+    if not (os.path.isfile(CHROMIUM) and os.access(CHROMIUM, os.X_OK)):
+        pytest.fail(f"chromium (Debian package chromium) is required at {CHROMIUM} for this test")
+    for which in ("ballbar", "probe"):
+        report = reports[which]
+        expected = len(re.findall(r"<img ", report.read_text(encoding="utf-8")))
+        started = time.perf_counter()
+        sizes = _rendered_sizes(report, tmp_path)
+        elapsed = time.perf_counter() - started
+        assert len(sizes) == expected > 0, which
+        for index, size in enumerate(sizes):
+            assert size["complete"], (which, index)
+            assert min(size["natural"]) > 0, (which, index, size)  # decoded: a broken image has natural size 0
+            assert min(size["shown"]) > 0, (which, index, size)  # and laid out with an area
+        print(f"{which}: {expected} images rendered by chromium in {elapsed:.2f} s")
+
+
+def test_chromium_reports_a_broken_image_as_such(tmp_path):
+    """The browser check can fail: an image that does not decode has no natural size."""
+    if not (os.path.isfile(CHROMIUM) and os.access(CHROMIUM, os.X_OK)):
+        pytest.fail(f"chromium (Debian package chromium) is required at {CHROMIUM} for this test")
+    page = tmp_path / "broken.html"
+    good = base64.b64encode(_png()).decode()
+    page.write_text(f'<!DOCTYPE html><html><body><img src="data:image/png;base64,{good}" alt="good">'
+                    f'<img src="data:image/png;base64,AAAA" alt="broken"></body></html>')
+    sizes = _rendered_sizes(page, tmp_path)
+    assert min(sizes[0]["natural"]) > 0 and sizes[1]["natural"] == [0, 0]
+
