@@ -216,6 +216,11 @@ class Segmenter:
         self.frame = Frame(target.nominal)
         self.u, self.v = self.frame.uv(target.points)
         self.tol = limits.tolerance
+        # A chord sampled every h and read linearly across an arc's frame misses up to h^2/(8r):
+        # keep that under a hundredth of the tolerance on small arcs.
+        self.spacing = limits.spacing
+        if isinstance(target.nominal, Arc):
+            self.spacing = min(limits.spacing, math.sqrt(8.0 * target.nominal.r * self.tol * 0.01))
         last = len(target.t) - 1
         self.last = last
         self.vertices: dict[int, tuple[float, float]] = {}
@@ -226,7 +231,7 @@ class Segmenter:
 
     def _measure(self, cut: Cut, i: int, j: int) -> float:
         """Deviation of one cut from the target samples i..j (and its end points)."""
-        path = cut.sample(self.limits.spacing)
+        path = cut.sample(self.spacing)
         deviation = _deviation(self.frame, self.u[i : j + 1], self.v[i : j + 1], path)
         ends = max(
             math.dist(cut.start, self.target.points[i]),
@@ -236,7 +241,7 @@ class Segmenter:
 
     def measure(self, cuts: list[Cut]) -> float:
         """Deviation of a whole plan from the whole target."""
-        path = np.concatenate([cut.sample(self.limits.spacing) for cut in cuts])
+        path = np.concatenate([cut.sample(self.spacing) for cut in cuts])
         deviation = _deviation(self.frame, self.u, self.v, path)
         ends = max(math.dist(cuts[0].start, self.target.start), math.dist(cuts[-1].end, self.target.end))
         return max(deviation, ends)
@@ -469,7 +474,7 @@ class Segmenter:
 
     def _measure_chord(self, cut: Cut, i: int, j: int) -> float:
         """A chord's vertices stand off the target on purpose: measure only across it."""
-        path = cut.sample(self.limits.spacing)
+        path = cut.sample(self.spacing)
         deviation = _deviation(self.frame, self.u[i : j + 1], self.v[i : j + 1], path)
         if i == 0:
             deviation = max(deviation, math.dist(cut.start, self.target.start))
