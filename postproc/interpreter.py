@@ -44,6 +44,12 @@ _FAST_LETTERS = frozenset("XZUWIKRFS")
 _FAST_LENGTHS = frozenset("XZUWIKR")
 _FLOW_M = frozenset(("2", "02", "002", "30", "030", "98", "098", "99", "099"))
 
+# The control's format rules for numbers as written.
+_MAX_DIGITS = 9  #: significant digits a word may carry
+_UNSIGNED = frozenset("GMTSFLD")  #: addresses that take no negative sign
+_WHOLE = frozenset("MT")  #: addresses that take no decimal point
+_MACRO_CALLS = frozenset(("65", "065", "66", "066"))
+
 #: Addresses whose plain numbers are lengths: without a decimal point they count least
 #: input increments (unless calculator-type input is set).
 _LENGTH_ADDRESSES = frozenset("XZUWIKR") | {",C", ",R"}
@@ -328,6 +334,8 @@ class Interpreter:
                 continue
             if letter not in _FAST_LETTERS or letter in values:
                 return None
+            if value[0] == "-" and letter in _UNSIGNED or len(value) > _MAX_DIGITS:
+                return None  # the general path says what the control would
             number = float(value)
             if letter in _FAST_LENGTHS:
                 if "." not in value and not profile.calculator_input:
@@ -448,8 +456,10 @@ class Interpreter:
         increment = profile.increment(inch)
         scale = INCH if inch else 1.0
         macro_call = False
+        arguments = any(letter == "G" and value in _MACRO_CALLS for letter, value in block.codes)
         for letter, value in block.codes:
-            if type(value) is str:
+            if type(value) is str and not (arguments and letter != "G"):  # G65 arguments are any numbers
+                self._check_format(block, letter, value)
                 number = float(value)
                 point = "." in value
             else:
@@ -480,6 +490,22 @@ class Interpreter:
                 )
             words.values[letter] = number
         return words
+
+    def _check_format(self, block: Block, letter: str, value: str) -> None:
+        """The control's format alarms for a number as written (PS0003, PS0006, PS0007)."""
+        unsigned = value.lstrip("+-")
+        if "." in unsigned:
+            unsigned = unsigned.rstrip("0")
+        digits = unsigned.replace(".", "").lstrip("0")  # the significant digits
+        if len(digits) > _MAX_DIGITS:
+            raise InterpretationError(f"{letter}{value}: more than {_MAX_DIGITS} digits (FANUC alarm PS0003)",
+                                      self._location(block, self._col(block, letter)))
+        if value.startswith("-") and letter in _UNSIGNED:
+            raise InterpretationError(f"{letter}{value}: address {letter} takes no sign (FANUC alarm PS0006)",
+                                      self._location(block, self._col(block, letter)))
+        if "." in value and letter in _WHOLE:
+            raise InterpretationError(f"{letter}{value}: address {letter} takes no decimal point (FANUC alarm PS0007)",
+                                      self._location(block, self._col(block, letter)))
 
     def _words_step(self, block: Block) -> Step:
         if not block.codes:

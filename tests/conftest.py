@@ -15,12 +15,16 @@ SAMPLES = REPO / "samples"
 
 
 def corpus_dir() -> Path:
-    """``../shared/corpus`` beside the repository, or ``$POSTPROC_CORPUS``."""
+    """``$POSTPROC_CORPUS``, or ``shared/corpus`` beside the repository (or beside a folder above it)."""
     configured = os.environ.get("POSTPROC_CORPUS")
-    path = Path(configured) if configured else REPO.parent / "shared" / "corpus"
-    if not path.is_dir():
-        raise RuntimeError(f"the corpus of real programs is missing: {path} (set POSTPROC_CORPUS)")
-    return path
+    if configured:
+        candidates = [Path(configured)]
+    else:
+        candidates = [parent / "shared" / "corpus" for parent in REPO.parents]
+    for path in candidates:
+        if path.is_dir():
+            return path
+    raise RuntimeError(f"the corpus of real programs is missing: {candidates[0]} (set POSTPROC_CORPUS)")
 
 
 def corpus(folder: str) -> list[Path]:

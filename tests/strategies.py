@@ -16,11 +16,12 @@ EOL = st.sampled_from(["\n", "\n", "\r\n", "\r\n", "\r"])
 
 @st.composite
 def numbers(draw, signed: bool = True) -> str:
-    """``10``, ``10.``, ``.5``, ``-0.42928932``, ``+1.``: every spelling FANUC reads."""
+    """``10``, ``10.``, ``.5``, ``-0.42928932``, ``+1.``: every spelling FANUC reads (at most
+    nine digits, the control's limit)."""
     sign = draw(st.sampled_from(["", "", "-", "+"])) if signed else ""
     whole = draw(st.text("0123456789", min_size=0, max_size=5))
     point = draw(st.booleans())
-    fraction = draw(st.text("0123456789", min_size=0, max_size=8)) if point else ""
+    fraction = draw(st.text("0123456789", min_size=0, max_size=9 - len(whole))) if point else ""
     if not whole and not fraction:
         whole = draw(st.text("0123456789", min_size=1, max_size=3))
     return f"{sign}{whole}{'.' if point else ''}{fraction}"
