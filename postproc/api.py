@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import Sequence
 
 from . import profile as profiles
-from .diagnostics import Diagnostic, Reporter
+from .diagnostics import Diagnostic, OptionError, Reporter
 from .output import Spool
 from .source import Source
 
@@ -61,6 +61,14 @@ class Pipeline:
         reporter: Reporter | None = None,
     ):
         from .pipeline import Pipeline as Core, Request
+
+        if tolerance is not None and not tolerance > 0:
+            raise OptionError(f"--tolerance {tolerance}: the tolerance must be positive")
+        if max_correction is not None and not max_correction > 0:
+            raise OptionError(f"--max-correction {max_correction}: must be positive")
+        from .region import Region
+
+        Region(list(regions))  # refuse a bad region before anything is read
 
         if isinstance(machine, str):
             machine = profiles.load(machine)

@@ -149,6 +149,8 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
         raise UsageError("measurements were given but no compensator (--plugin) to use them")
     if options and not plugins and not model:
         raise UsageError("--option was given but no compensator (--plugin) to take it")
+    if regions and not plugins and not model:
+        raise UsageError("--region was given but no compensator (--plugin) to compensate it")
     if (diff or check_only) and (output or out_dir):
         raise UsageError("--diff and --check write no program: give no -o or --out-dir")
     reporter = Reporter(sys.stderr)

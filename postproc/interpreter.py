@@ -529,7 +529,8 @@ class Interpreter:
             if entry is None:
                 self.modal = replace(self.modal, motion=None)
                 raise _Uninterpretable(
-                    f"{G.code_name(key)} is not a G code this interpreter knows (G-code system {self.profile.gcode_system})",
+                    f"{G.code_name(key)} is not a G code this interpreter knows (G-code system {self.profile.gcode_system}; "
+                    "FANUC alarm PS0010 on a control without it)",
                     self._col(block, "G"),
                 )
             kind, meaning = entry

@@ -233,7 +233,7 @@ def _binary(op: str, a: float, b: float) -> float:
         return a * b
     if op == "/":
         if b == 0:
-            raise MacroValueError("division by zero")
+            raise MacroValueError("division by zero (FANUC alarm PS0112)")
         return a / b
     if op == "MOD":
         if b == 0:

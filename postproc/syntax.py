@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import importlib.resources
+import re
 
 from lark import Lark, Token, Tree
 from lark.exceptions import LarkError, UnexpectedCharacters, UnexpectedEOF, UnexpectedToken
@@ -76,6 +77,8 @@ def _explain(exc: LarkError, text: str) -> tuple[str, int]:
             return f"address {before[-1].upper()} has no value (FANUC alarm PS0005)", col - 1
         if char.isalpha() and char.upper() == "N":
             return "a sequence number N must begin the block", col
+        if not char.isprintable() or ord(char) > 126:
+            return f"a character the control does not read (U+{ord(char):04X}): is this a text program?", col
         return f"unexpected character {char!r}", col
     if isinstance(exc, UnexpectedToken):
         token = exc.token
@@ -104,9 +107,16 @@ def _explain(exc: LarkError, text: str) -> tuple[str, int]:
     return f"cannot parse this block ({exc.__class__.__name__})", 0
 
 
+_KEYWORD_AT_END = re.compile(r"(?i)(goto|then|do|end|while|wh|if)$")
+
+
 def _explain_end(text: str, expected) -> tuple[str, int]:
     stripped = text.rstrip(" \t")
     col = len(stripped)
+    keyword = _KEYWORD_AT_END.search(stripped)
+    if keyword:
+        word = keyword.group(1).upper()
+        return f"{word} at the end of the block: what it needs is missing (FANUC alarm PS0114)", keyword.start()
     if stripped and stripped[-1].isalpha():
         return f"address {stripped[-1].upper()} has no value (FANUC alarm PS0005)", col - 1
     if "RSQB" in expected:

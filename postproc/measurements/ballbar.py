@@ -144,12 +144,14 @@ def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6
         for key in ("start_angle_deg", "capture_arc_deg"):
             if key in table.header:
                 raise table.error(f"{key} belongs to the raw form (angles are given here)", table.header[key][1])
-        angles = np.mod(np.array(table.column("angle_deg")), 360.0)
+        written = np.array(table.column("angle_deg"))
+        angles = np.mod(written, 360.0)
         seen: dict[float, int] = {}
-        for (line, _), angle in zip(table.rows, angles):
+        for (line, _), angle, as_written in zip(table.rows, angles, written):
             key = round(float(angle), 9) % 360.0
             if key in seen:
-                raise table.error(f"angle {angle:g} deg again (first on line {seen[key]})", line)
+                same = "" if angle == as_written else f" ({angle:g} deg)"
+                raise table.error(f"angle {as_written:g} deg{same} again (first on line {seen[key]})", line)
             seen[key] = line
     if len(deviations) < 3:
         raise table.error(f"{len(deviations)} samples: a trace needs at least 3")
