@@ -25,8 +25,8 @@ class OutputError(PostprocError):
 
 
 def _explain(exc: OSError) -> str:
-    if exc.errno == errno.ENOSPC:
-        return "no space left on the device; nothing was written"
+    if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
+        return "no space left for it (disk full, quota or file size limit); nothing was written"
     if exc.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
         return "permission denied; nothing was written"
     if exc.errno == errno.ENOENT:
@@ -35,18 +35,37 @@ def _explain(exc: OSError) -> str:
 
 
 class Spool:
-    """A temporary file that becomes the output on :meth:`commit`."""
+    """A file with no name until :meth:`commit` makes it the output.
+
+    Where the system allows (Linux ``O_TMPFILE``), the spool is an anonymous file in the
+    destination's directory: a run killed at any moment, even by SIGKILL, leaves nothing behind.
+    Elsewhere it is a hidden temporary file, removed on every error the process survives.
+    """
 
     def __init__(self, destination: str = STDOUT):
         self.destination = destination
-        directory = None if destination == STDOUT else (os.path.dirname(os.path.abspath(destination)) or ".")
-        name = "postproc-" if directory is None else f".{os.path.basename(destination)}.postproc-"
-        try:
-            fd, self.path = tempfile.mkstemp(prefix=name, suffix=".tmp", dir=directory)
-        except OSError as exc:
-            raise OutputError(f"cannot write output: {_explain(exc)}", Location(destination)) from None
-        self.file: BinaryIO = os.fdopen(fd, "wb")
+        self.directory = tempfile.gettempdir() if destination == STDOUT else (
+            os.path.dirname(os.path.abspath(destination)) or ".")
+        self.path: str | None = None
+        fd = self._anonymous()
+        if fd is None:
+            name = "postproc-" if destination == STDOUT else f".{os.path.basename(destination)}.postproc-"
+            try:
+                fd, self.path = tempfile.mkstemp(prefix=name, suffix=".tmp", dir=self.directory)
+            except OSError as exc:
+                raise OutputError(f"cannot write output: {_explain(exc)}", Location(destination)) from None
+        self.file: BinaryIO = os.fdopen(fd, "w+b")
         self._done = False
+
+    def _anonymous(self) -> int | None:
+        if not hasattr(os, "O_TMPFILE"):
+            return None
+        try:
+            return os.open(self.directory, os.O_TMPFILE | os.O_RDWR, 0o600)
+        except OSError as exc:
+            if exc.errno in (errno.ENOENT, errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOSPC, errno.ENOTDIR):
+                raise OutputError(f"cannot write output: {_explain(exc)}", Location(self.destination)) from None
+            return None  # a file system without O_TMPFILE: a named temporary file instead
 
     def write(self, data: bytes) -> None:
         try:
@@ -56,23 +75,43 @@ class Spool:
             raise OutputError(f"cannot write output: {_explain(exc)}", Location(self.destination)) from None
 
     def commit(self) -> None:
-        """Make the spool the output: rename over the destination, or copy to stdout."""
+        """Make the spool the output: give it the destination's name, or copy it to stdout."""
         try:
             self.file.flush()
             os.fsync(self.file.fileno())
-            self.file.close()
             if self.destination == STDOUT:
-                with open(self.path, "rb") as spooled:
-                    shutil.copyfileobj(spooled, sys.stdout.buffer)
+                self.file.seek(0)
+                shutil.copyfileobj(self.file, sys.stdout.buffer)
                 sys.stdout.buffer.flush()
-                os.unlink(self.path)
+                self.discard()
             else:
+                if self.path is None:  # name the anonymous file beside the destination, then move it there
+                    self._name()
                 _keep_mode(self.path, self.destination)
                 os.replace(self.path, self.destination)
+                self.file.close()
         except OSError as exc:
             self.discard()
             raise OutputError(f"cannot write output: {_explain(exc)}", Location(self.destination)) from None
         self._done = True
+
+    def _name(self) -> None:
+        """Give the anonymous spool a name: a link to it, or (where links to /proc are not allowed)
+        a copy made in the last moment of the run."""
+        prefix = f".{os.path.basename(self.destination)}.postproc-"
+        candidate = os.path.join(self.directory, f"{prefix}{os.getpid()}.tmp")
+        try:
+            os.link(f"/proc/self/fd/{self.file.fileno()}", candidate, follow_symlinks=True)
+            self.path = candidate
+            return
+        except OSError:
+            pass
+        fd, self.path = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=self.directory)
+        with os.fdopen(fd, "wb") as named:
+            self.file.seek(0)
+            shutil.copyfileobj(self.file, named)
+            named.flush()
+            os.fsync(named.fileno())
 
     def discard(self) -> None:
         if self._done:
@@ -81,10 +120,11 @@ class Spool:
         try:
             self.file.close()
         finally:
-            try:
-                os.unlink(self.path)
-            except OSError:
-                pass
+            if self.path is not None:
+                try:
+                    os.unlink(self.path)
+                except OSError:
+                    pass
 
     def __enter__(self) -> "Spool":
         return self
