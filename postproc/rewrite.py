@@ -211,6 +211,7 @@ class Rewriter:
             and move.kind in (LINE, ARC)
             and move.exact
             and move.known
+            and (move.kind == ARC or (move.x0, move.z0) != (move.x1, move.z1))  # a line of no length: nothing to move
             and move.role in (RUN, CONTOUR, CORNER)
             and step.block.delete is None
             and self.selects(step, move)
@@ -246,8 +247,7 @@ class Rewriter:
         first_move = firsts[0]
         first_edit = entry.edits[entry.step.moves.index(first_move)]
         connected = (
-            last_move.x1 is not None
-            and first_move.x0 is not None
+            None not in (last_move.x1, last_move.z1, first_move.x0, first_move.z0)
             and abs(last_move.x1 - first_move.x0) < JOIN
             and abs(last_move.z1 - first_move.z0) < JOIN
             and (last_move.role == CONTOUR) == (first_move.role == CONTOUR)

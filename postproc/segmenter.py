@@ -295,8 +295,10 @@ class Segmenter:
         lo, hi = max(index - 8, 0), min(index + 8, self.last)
         if hi - lo < 2:
             return 0.0
-        coeffs = np.polyfit(self.u[lo : hi + 1], self.v[lo : hi + 1], 2)
-        return float(coeffs[0])
+        u, v = self.u[lo : hi + 1], self.v[lo : hi + 1]
+        if np.ptp(u) == 0.0:
+            return 0.0
+        return float(np.polyfit(u, v, 2)[0])
 
     # ---------------------------------------------------------------- candidate cuts
 
