@@ -203,7 +203,7 @@ class Pipeline:
         for compensator in self.compensators:
             for text in self._guarded(compensator, "prologue", compensator.prologue):
                 try:
-                    for _ in Interpreter(self.profile, Reporter(), "<prologue>").run(read_blocks([(text, "\n")], "<prologue>")):
+                    for _ in Interpreter(self.profile, Reporter(), "<prologue>").run(read_blocks([text + "\n"], "<prologue>")):
                         pass
                 except PostprocError as exc:
                     raise PluginError(compensator.name, f"its opening block {text!r} does not read: {exc.message}") from None
@@ -211,7 +211,7 @@ class Pipeline:
         return "".join(lines)
 
     def _refuse_twice(self, source: Source) -> None:
-        for number, (text, _) in enumerate(source.lines(), 1):
+        for number, text in enumerate(source.lines(), 1):
             if _HEADER.match(text):
                 if self.request.force:
                     self.reporter.warn("this program was compensated before; compensating again (--force)",

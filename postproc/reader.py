@@ -9,17 +9,26 @@ from __future__ import annotations
 
 from typing import Iterable, Iterator
 
-from .blocks import BLANK, TAPE, TRAILER, Block
+from .blocks import BLANK, BLOCK, TAPE, TRAILER, Block
 from .diagnostics import Location, Reporter
 from .fastpath import read_ordinary
 
 
-def read_blocks(lines: Iterable[tuple[str, str]], file: str, reporter: Reporter | None = None) -> Iterator[Block]:
-    """Blocks of a program given as ``(text, eol)`` lines; raises ProgramSyntaxError."""
+def read_blocks(lines: Iterable[str], file: str, reporter: Reporter | None = None) -> Iterator[Block]:
+    """Blocks of a program given as lines, each with its ending; raises ProgramSyntaxError."""
     started = ended = False
     line = 0
-    for text, eol in lines:
+    for text in lines:
         line += 1
+        if text[-1:] == "\n":
+            if text[-2:-1] == "\r":
+                text, eol = text[:-2], "\r\n"
+            else:
+                text, eol = text[:-1], "\n"
+        elif text[-1:] == "\r":
+            text, eol = text[:-1], "\r"
+        else:
+            eol = ""
         if ended:
             if text.strip() and reporter is not None and ended is True:
                 reporter.warn("text after the closing '%' is never read by the control", Location(file, line, 1, text))
@@ -33,13 +42,14 @@ def read_blocks(lines: Iterable[tuple[str, str]], file: str, reporter: Reporter 
             block = parse_block(text, line, eol, file)
             if reporter is not None:
                 _note_spaced_numbers(block, file, reporter)
-        if block.kind == TAPE:
+        kind = block.kind
+        if kind is BLOCK:
+            started = True
+        elif kind == TAPE:
             if started:
                 ended = True
             started = True
-            yield block
-            continue
-        if block.kind != BLANK:
+        elif kind != BLANK:
             started = True
         yield block
 

@@ -584,7 +584,7 @@ class Rewriter:
         where = Location(self.file, step.block.line, None, step.block.text)
         moves: list[Move] = []
         try:
-            for block in read_blocks([(line.rstrip("\r\n"), "\n") for line in lines], "<replacement>"):
+            for block in read_blocks(lines, "<replacement>"):
                 moves.extend(checker.step(block).moves)
         except Exception as exc:  # the replacement must parse and interpret
             raise SafetyError(f"self-check: the replacement does not read back ({exc})", where) from None

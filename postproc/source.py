@@ -96,20 +96,11 @@ class Source:
         except OSError as exc:
             raise ProgramError(f"cannot read program: {exc.strerror}", Location(self.name)) from None
 
-    def lines(self) -> Iterator[tuple[str, str]]:
-        """``(text, eol)`` for each line; bytes that are not UTF-8 survive as surrogates."""
+    def lines(self) -> Iterator[str]:
+        """Each line with its ending (LF, CRLF or a lone CR); bytes that are not UTF-8 survive as
+        surrogates, so writing a line back gives its bytes again."""
         with self.open_binary() as raw:
-            stream = io.TextIOWrapper(raw, encoding="utf-8", errors="surrogateescape", newline="")
-            for line in stream:
-                if line.endswith("\n"):
-                    if line.endswith("\r\n"):
-                        yield line[:-2], "\r\n"
-                    else:
-                        yield line[:-1], "\n"
-                elif line.endswith("\r"):
-                    yield line[:-1], "\r"
-                else:
-                    yield line, ""
+            yield from io.TextIOWrapper(raw, encoding="utf-8", errors="surrogateescape", newline="")
 
     @cached_property
     def labels(self) -> LabelIndex:
