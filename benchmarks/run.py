@@ -17,7 +17,6 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -31,15 +30,16 @@ POSTPROC = [PYTHON, "-m", "postproc.cli"]
 
 
 def measure(command: list[str], runs: int, stdout=subprocess.DEVNULL) -> tuple[float, float, int]:
-    """Median wall time (s), median peak RSS (MB) and exit code of a command."""
+    """Median wall time (s), median peak RSS (MB) and exit code of a command, each run
+    through the small launcher so that this process's own memory is not counted."""
     times, peaks, code = [], [], 0
     for _ in range(runs):
-        start = time.perf_counter()
-        process = subprocess.Popen(command, stdout=stdout, stderr=subprocess.DEVNULL)
-        _, status, usage = os.wait4(process.pid, 0)
-        times.append(time.perf_counter() - start)
-        peaks.append(usage.ru_maxrss / 1024.0)
-        code = os.waitstatus_to_exitcode(status)
+        result = subprocess.run([PYTHON, str(HERE / "launch.py"), *command], stdout=stdout,
+                                stderr=subprocess.PIPE, text=True, check=True)
+        seconds, peak, code = result.stderr.split()[-3:]
+        times.append(float(seconds))
+        peaks.append(float(peak))
+        code = int(code)
     return statistics.median(times), statistics.median(peaks), code
 
 

@@ -24,6 +24,7 @@ from typing import Sequence
 from . import profile as profiles
 from .diagnostics import Diagnostic, OptionError, Reporter
 from .output import Spool
+from .request import Request
 from .source import Source
 
 
@@ -60,8 +61,6 @@ class Pipeline:
         regions: Sequence[str] = (),
         reporter: Reporter | None = None,
     ):
-        from .pipeline import Pipeline as Core, Request
-
         if tolerance is not None and not tolerance > 0:
             raise OptionError(f"--tolerance {tolerance}: the tolerance must be positive")
         if max_correction is not None and not max_correction > 0:
@@ -76,7 +75,11 @@ class Pipeline:
         self.reporter = reporter or Reporter()
         self.request = Request(list(plugins), list(ballbar), list(probe), calibration, model, list(options), tolerance,
                                mode, max_correction, force, list(regions))
-        self.core = Core(self.request, self.profile, self.reporter) if (plugins or model) else None
+        self.core = None
+        if plugins or model:
+            from .pipeline import Pipeline as Core
+
+            self.core = Core(self.request, self.profile, self.reporter)
 
     @property
     def warnings(self) -> list[Diagnostic]:

@@ -250,7 +250,8 @@ def fit(plugins, ballbar, probe, calibration, options, machine, note, force, out
     """Fit a compensator's model from measurements and save it (apply it with compensate --model)."""
     from .models import dumps
     from .output import write_atomically
-    from .pipeline import Pipeline, Request
+    from .pipeline import Pipeline
+    from .request import Request
 
     reporter = Reporter(sys.stderr)
     request = Request(list(plugins), list(ballbar), list(probe), calibration, None, list(options), force=force)

@@ -15,7 +15,6 @@ import re
 import signal
 import tempfile
 import threading
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -31,29 +30,13 @@ from .output import Spool
 from .profile import DEFAULT, MachineProfile
 from .program import interpret_source
 from .region import Region
+from .request import Request
 from .rewrite import Piece, Rewriter, Settings
 from .source import Source
 
 HEADER_MARK = "POSTPROC"
 _HEADER = re.compile(r"^\s*\(POSTPROC \S+ COMPENSATED", re.IGNORECASE)
 _SAFE = re.compile(r"[^A-Z0-9 .,:/_=+-]")
-
-
-@dataclass
-class Request:
-    """What the user asked for (the options of ``postproc compensate``)."""
-
-    plugins: list[str] = field(default_factory=list)
-    ballbar: list[str] = field(default_factory=list)
-    probe: list[str] = field(default_factory=list)
-    calibration: str | None = None
-    model: str | None = None
-    options: list[str] = field(default_factory=list)
-    tolerance: float | None = None
-    mode: str = "auto"
-    max_correction: float | None = None
-    force: bool = False
-    regions: list[str] = field(default_factory=list)
 
 
 def digest(path: str) -> str:
@@ -179,7 +162,7 @@ class Pipeline:
         region = Region(self.request.regions)
         rewriter = Rewriter(steps, self._corrector(source), settings, self.reporter, source.name, selects=region)
         lead: list[str] = []  # the tape mark and program number go before the provenance block
-        with tempfile.SpooledTemporaryFile(max_size=8 << 20) as body:
+        with tempfile.SpooledTemporaryFile(max_size=1 << 20) as body:
             for text in rewriter.run():
                 if body.tell() == 0 and _is_program_start(text) and len(lead) < 8:
                     lead.append(text)

@@ -65,8 +65,13 @@ class Grid:
         return word * self.unit
 
     def snap(self, x: float, z: float) -> tuple[float, float]:
-        """A point moved onto the grid, in radius mm."""
-        return float(self.x_of(self.x_word(x))), float(self.z_of(self.z_word(z)))
+        """A point moved onto the grid, in radius mm (``x_of(x_word(x))``, ``z_of(z_word(z))``,
+        written out: the segmenter snaps candidate vertices by the thousand)."""
+        unit = INCH if self.inch else 1.0
+        d = 2.0 if self.diameter else 1.0
+        decimals = self.decimals
+        x, z = float(x), float(z)
+        return (round(x * d / unit, decimals) + 0.0) * unit / d, (round(z / unit, decimals) + 0.0) * unit
 
     def snap_offset(self, length: float) -> float:
         return self.offset_of(self.offset_word(length))

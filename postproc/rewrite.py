@@ -31,7 +31,7 @@ from . import gcodes as G
 from .blocks import Block
 from .diagnostics import Location, Reporter, SafetyError
 from .emitter import Style, Writer, with_motion_code
-from .geometry import Arc, Line, segment_of
+from .geometry import TAU, Arc, Line, segment_of
 from .interpreter import Interpreter
 from .motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
 from .reader import read_blocks
@@ -89,12 +89,35 @@ def pieces(move: Move, last: tuple[int, int] = (0, 0)) -> list[Piece]:
 
 
 def travel_after(move: Move, last: tuple[int, int]) -> tuple[int, int]:
-    """The direction each axis last travelled in, once ``move`` has run."""
+    """The direction each axis last travelled in, once ``move`` has run.
+
+    Worked out with floats, not the geometry's arrays: it runs for every move of the
+    program, compensated or not."""
     if not move.known or move.kind not in (LINE, ARC, RAPID) or not move.exact:
         return (0, 0) if not move.known else last
-    segment = segment_of(move)
-    x, z = _travel(segment, 1.0) if segment.length > 0 else (0, 0)
+    if move.xc is None:
+        dx, dz = move.x1 - move.x0, move.z1 - move.z0
+        length = math.hypot(dx, dz)
+        if length == 0.0:
+            return last
+        tx, tz = dx / length, dz / length
+    else:
+        theta0 = math.atan2(move.z0 - move.zc, move.x0 - move.xc)
+        theta1 = math.atan2(move.z1 - move.zc, move.x1 - move.xc)
+        sweep = (theta1 - theta0) % TAU if move.cw else -((theta0 - theta1) % TAU)  # as Arc.through
+        if sweep == 0.0 and (move.x0, move.z0) == (move.x1, move.z1):
+            sweep = TAU if move.cw else -TAU  # a full circle
+        if sweep == 0.0 or (move.x0, move.z0) == (move.xc, move.zc) == (move.x1, move.z1):
+            return last
+        theta = theta0 + sweep
+        sign = 1.0 if sweep >= 0 else -1.0
+        tx, tz = -sign * math.sin(theta), sign * math.cos(theta)
+    x, z = _sign(round(tx, 12)), _sign(round(tz, 12))
     return (x or last[0], z or last[1])
+
+
+def _sign(value: float) -> int:
+    return (value > 0.0) - (value < 0.0)
 
 
 Corrector = Callable[[Piece], "np.ndarray | None"]

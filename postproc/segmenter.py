@@ -309,9 +309,13 @@ class Segmenter:
 
     def arc(self, i: int, j: int) -> Cut | None:
         """The best arc through the grid points at samples i and j, or None."""
+        return self._arc(i, j)[0]
+
+    def _arc(self, i: int, j: int) -> tuple[Cut | None, float]:
+        """The best arc through the grid points at samples i and j, and its measured deviation."""
         a, b = self._vertex(i), self._vertex(j)
         if a == b:
-            return None
+            return None, math.inf
         points = self.target.points[i : j + 1]
         mid = (np.array(a) + np.array(b)) / 2.0
         chord = np.array(b) - np.array(a)
@@ -319,27 +323,48 @@ class Segmenter:
         normal = np.array([-chord[1], chord[0]]) / (2.0 * half)
         start = self._centre_guess(points, i, j)
         if start is None:
-            return None
+            return None, math.inf
         lam = float((np.array(start) - mid) @ normal)
         lam = self._refine(points, mid, normal, a, lam)
         if lam is None:
-            return None
+            return None, math.inf
         centre = mid + lam * normal
         radius = math.hypot(half, lam)
         if radius > self.limits.max_arc_radius:
-            return None
+            return None, math.inf
         cw = self._direction(a, b, centre, points[len(points) // 2])
-        best, best_dev = None, math.inf
+        candidates = []
         for cand in self._rounded_centres(a, centre):
             cut = Cut(a[0], a[1], b[0], b[1], cand[0], cand[1], cw)
             if cut.radius_mismatch > self.limits.arc_radius_tolerance:
                 continue
             if abs(cand[0] - a[0]) < 1e-12 and abs(cand[1] - a[1]) < 1e-12:
                 continue
+            candidates.append((self._radial_bound(cut, i, j), len(candidates), cut))
+        ends = max(math.dist(a, self.target.points[i]), math.dist(b, self.target.points[j]))  # as _measure
+        best, best_dev = None, math.inf
+        for bound, _, cut in sorted(candidates):
+            bound = max(bound, ends)
+            if bound >= best_dev:
+                break  # no candidate left can beat the best: measuring them is wasted work
             deviation = self._measure(cut, i, j)
             if deviation < best_dev:
                 best, best_dev = cut, deviation
-        return best
+        return best, best_dev
+
+    def _radial_bound(self, cut: Cut, i: int, j: int) -> float:
+        """A lower bound of what :meth:`_measure` gives for an arc cut, without sampling it.
+
+        A target sample's distance to the cut's circle (to the ring between its two radii,
+        for a cut whose ends sit at slightly different radii) is never more than the
+        deviation measured across the frame, less the small error of reading the sampled
+        path linearly (a hundredth of the tolerance, see ``spacing``: the slack is five)."""
+        r0, r1, _ = cut._spiral()
+        points = self.target.points[i : j + 1]
+        distance = np.hypot(points[:, 0] - cut.xc, points[:, 1] - cut.zc)
+        outside = np.maximum(np.maximum(distance - max(r0, r1), min(r0, r1) - distance), 0.0)
+        inner = outside[1:-1] if len(outside) > 2 else outside[:0]  # the ends may lie beyond the cut's span
+        return (float(inner.max()) if len(inner) else 0.0) - 0.05 * self.tol
 
     def _centre_guess(self, points: np.ndarray, i: int, j: int):
         if isinstance(self.frame.nominal, Arc) and j - i >= 0.5 * self.last:
@@ -398,17 +423,29 @@ class Segmenter:
     # ---------------------------------------------------------------- plans
 
     def single_line(self) -> Plan | None:
+        if self._chord_cannot_follow():
+            return None
         cut = self.line(0, self.last)
         if cut.start == cut.end:
             return None
         deviation = self._measure(cut, 0, self.last)
         return Plan([cut], deviation, "line") if deviation <= self.tol else None
 
+    def _chord_cannot_follow(self) -> bool:
+        """True when the nominal arc bows away from its chord by more than the tolerance and
+        the displacement together with the rounding of both ends could make up: no
+        single line can then follow the target, and measuring one is wasted work."""
+        nominal = self.target.nominal
+        if not isinstance(nominal, Arc):
+            return False
+        sagitta = min(nominal.r, nominal.end_radius) * (1.0 - math.cos(min(abs(nominal.sweep), math.pi) / 2.0))
+        shift = float(np.max(np.hypot(self.target.d[:, 0], self.target.d[:, 1])))
+        return sagitta > self.tol + 2.0 * shift + 2.0 * self.grid.rounding_error
+
     def single_arc(self) -> Plan | None:
-        cut = self.arc(0, self.last)
+        cut, deviation = self._arc(0, self.last)
         if cut is None:
             return None
-        deviation = self._measure(cut, 0, self.last)
         return Plan([cut], deviation, "arc") if deviation <= self.tol else None
 
     def arcs(self) -> Plan | None:

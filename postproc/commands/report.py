@@ -34,7 +34,7 @@ from ..output import STDOUT, write_atomically
 def command(program, output, plugins, ballbar, probe, calibration, model, options, machine, tolerance):
     """An HTML report: measurements, ISO figures, fitted models, predicted profile, provenance."""
     from .. import profile as profiles
-    from ..pipeline import Request
+    from ..request import Request
     from ..report.html import render
     from ..report.sections import Inputs, build
     from ..source import Source

@@ -33,7 +33,7 @@ from ..measurements.ballbar import BallbarTrace, pair
 from ..measurements.probe import CalibrationRun, ProbeFile
 from ..measurements.registry import ReadContext, read as read_measurement
 from ..output import Spool
-from ..pipeline import Request
+from ..request import Request
 from ..probing import ProbedProfile, probe_profile
 from ..profile import MachineProfile
 from ..source import Source
