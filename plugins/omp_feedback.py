@@ -19,7 +19,7 @@ from postproc.hookspecs import hookimpl
 from postproc.measurements.probe import ProbeFile
 from postproc.motion import CORNER, REPLAY, RUN, Move
 from postproc.pretravel import fit_calibration
-from postproc.probing import Deviations, check_datum, profile_deviations, touched_points
+from postproc.probing import Deviations, Screened, check_datum, profile_deviations, touched_points
 from postproc.screening import Screening, screen
 
 JOIN = 1e-6  #: mm: a move starting this close to where the previous one ended continues its chain
@@ -65,7 +65,7 @@ def chains_of(moves: Iterable[Move]) -> list[Chain]:
 
 
 @dataclass(frozen=True)
-class ProbedChain:
+class ProbedChain(Screened):
     """The touches that lie on one chain, against it, screened for the nub and outliers."""
 
     chain: Chain
@@ -74,14 +74,6 @@ class ProbedChain:
     deviations: Deviations  #: along the outward normal, positive = material left; ``nearest.s`` along the chain
     screening: Screening
     side: float  #: +1 when the outward normal is the chain's left normal, -1 when its right
-
-    @property
-    def deviation(self) -> np.ndarray:
-        return self.deviations.deviation
-
-    @property
-    def cleaned(self) -> np.ndarray:
-        return self.screening.deviation
 
     def dropped(self) -> list[dict[str, Any]]:
         return [{"row": d.row, "kind": d.kind, "deviation_mm": d.deviation, "replacement_mm": d.replacement,

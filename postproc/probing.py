@@ -133,17 +133,13 @@ def profile_deviations(points, approach, profile: Profile, touches: Touches | No
     return Deviations(Nearest(index, param, foot, best, s), outward, deviation)
 
 
-@dataclass(frozen=True)
-class ProbedProfile:
-    """A probe file read against a nominal profile: what a probe compensator works from."""
+class Screened:
+    """Touches compared with a nominal and screened: what is measured, what drives a correction.
 
-    path: str
-    rows: tuple[int, ...]  #: the data row of each touch
-    touched: np.ndarray  #: (n, 2) touched points, mm
-    k: np.ndarray  #: pretravel used at each touch, mm
+    A base for frozen dataclasses that have the fields ``deviations`` and ``screening``."""
+
     deviations: Deviations
     screening: Screening
-    notes: tuple[str, ...]  #: for reports: calibration, datum check, screening
 
     @property
     def deviation(self) -> np.ndarray:
@@ -154,6 +150,19 @@ class ProbedProfile:
     def cleaned(self) -> np.ndarray:
         """With the nub and outliers replaced: what should drive a compensation, mm."""
         return self.screening.deviation
+
+
+@dataclass(frozen=True)
+class ProbedProfile(Screened):
+    """A probe file read against a nominal profile: what a probe compensator works from."""
+
+    path: str
+    rows: tuple[int, ...]  #: the data row of each touch
+    touched: np.ndarray  #: (n, 2) touched points, mm
+    k: np.ndarray  #: pretravel used at each touch, mm
+    deviations: Deviations
+    screening: Screening
+    notes: tuple[str, ...]  #: for reports: calibration, datum check, screening
 
     @property
     def kept(self) -> np.ndarray:

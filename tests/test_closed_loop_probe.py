@@ -19,6 +19,7 @@ from click.testing import CliRunner
 from postproc.api import Pipeline
 from postproc.cli import main
 from postproc.diagnostics import EXIT_BAD_INPUT, EXIT_REFUSED
+from support.parts import SHAFT
 
 REPO = Path(__file__).resolve().parents[1]
 HEMISHELL = str(REPO / "samples" / "programs" / "hemishell.nc")
@@ -34,21 +35,6 @@ T0101
 G00 X100. Z5.
 G01 Z-50. F0.1
 G00 X120.
-M30
-%
-"""
-
-# An outside profile of lines and arcs away from the axis: a chamfer, a cylinder, a fillet, a shoulder.
-SHAFT = """%
-O2000 (SHAFT)
-G18 G21 G40 G98
-T0101
-G00 X90. Z10.
-G01 X100. Z5. F200.
-G01 Z-20.
-G02 X140. Z-40. R20.
-G01 X160.
-G00 X200. Z50.
 M30
 %
 """

@@ -19,6 +19,7 @@ from postproc.simulator import (Simulation, ballbar_test, calibrate, cut, genera
 from postproc.simulator.config import from_table
 from postproc.simulator.errors import play
 from postproc.simulator.files import calibration_text, probe_text, read_surface, surface_text, trace_text
+from support.parts import SHAFT
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLES = REPO / "samples"
@@ -26,21 +27,6 @@ HEMISHELL = str(SAMPLES / "programs" / "hemishell.nc")
 MACHINE = str(SAMPLES / "machines" / "v40r-sim.toml")
 R = 57.15
 FINE = {"cut": {"step_mm": 0.005}}  # chords 5e-8 mm inside the arc: "exact" below 1e-7
-
-# An outside profile away from the spindle axis: a face-in, a cylinder, a fillet, a shoulder.
-SHAFT = """%
-O2000 (SHAFT)
-G18 G21 G40 G98
-T0101
-G00 X90. Z10.
-G01 X100. Z5. F200.
-G01 Z-20.
-G02 X140. Z-40. R20.
-G01 X160.
-G00 X200. Z50.
-M30
-%
-"""
 
 
 def simulation(**table) -> Simulation:
