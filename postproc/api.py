@@ -108,20 +108,24 @@ class Pipeline:
 
     def compensate_text(self, text: str, name: str = "<text>") -> str:
         """Compensate a program held in a string; returns the compensated program."""
+        with Source.from_text(text, name) as source:
+            return self.compensated(source).decode("utf-8", "surrogateescape")
+
+    def compensated(self, source: Source) -> bytes:
+        """The compensated program, by way of a temporary file (the spool commits to a path)."""
         import os
         import tempfile
 
-        with Source.from_text(text, name) as source:
-            handle, path = tempfile.mkstemp(prefix="postproc-", suffix=".nc")
-            os.close(handle)
-            try:
-                with Spool(path) as spool:
-                    self.compensate_source(source, spool)
-                    spool.commit()
-                with open(path, "rb") as result:
-                    return result.read().decode("utf-8", "surrogateescape")
-            finally:
-                os.unlink(path)
+        handle, path = tempfile.mkstemp(prefix="postproc-", suffix=".nc")
+        os.close(handle)
+        try:
+            with Spool(path) as spool:
+                self.compensate_source(source, spool)
+                spool.commit()
+            with open(path, "rb") as result:
+                return result.read()
+        finally:
+            os.unlink(path)
 
 
 def compensate_text(text: str, name: str = "<text>", **options) -> str:

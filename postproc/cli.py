@@ -211,20 +211,10 @@ def _jsonable(value):
 def _review(pipeline, name: str, diff: bool) -> bool:
     """Compensate without writing; print a unified diff if asked. Whether the program changes."""
     import difflib
-    import tempfile
 
     with Source(name) as source:
         original = source.read_bytes()
-        handle, path = tempfile.mkstemp(prefix="postproc-review-", suffix=".nc")
-        os.close(handle)
-        try:
-            with Spool(path) as spool:
-                pipeline.compensate_source(source, spool)
-                spool.commit()
-            with open(path, "rb") as result:
-                changed_bytes = result.read()
-        finally:
-            os.unlink(path)
+        changed_bytes = pipeline.compensated(source)
         if changed_bytes == original and not diff:
             return False
         before = original.decode("utf-8", "surrogateescape").splitlines(keepends=True)
