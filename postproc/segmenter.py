@@ -307,11 +307,7 @@ class Segmenter:
         b = b if b is not None else self._vertex(j)
         return Cut(a[0], a[1], b[0], b[1])
 
-    def arc(self, i: int, j: int) -> Cut | None:
-        """The best arc through the grid points at samples i and j, or None."""
-        return self._arc(i, j)[0]
-
-    def _arc(self, i: int, j: int) -> tuple[Cut | None, float]:
+    def arc(self, i: int, j: int) -> tuple[Cut | None, float]:
         """The best arc through the grid points at samples i and j, and its measured deviation."""
         a, b = self._vertex(i), self._vertex(j)
         if a == b:
@@ -443,7 +439,7 @@ class Segmenter:
         return sagitta > self.tol + 2.0 * shift + 2.0 * self.grid.rounding_error
 
     def single_arc(self) -> Plan | None:
-        cut, deviation = self._arc(0, self.last)
+        cut, deviation = self.arc(0, self.last)
         if cut is None:
             return None
         return Plan([cut], deviation, "arc") if deviation <= self.tol else None
@@ -463,8 +459,8 @@ class Segmenter:
         line = self.line(i, j)
         if line.start != line.end and self._measure(line, i, j) <= self.tol:
             return line
-        cut = self.arc(i, j)
-        if cut is not None and self._measure(cut, i, j) <= self.tol:
+        cut, deviation = self.arc(i, j)
+        if cut is not None and deviation <= self.tol:
             return cut
         return None
 
