@@ -458,10 +458,12 @@ class Interpreter:
         macro_call = False
         arguments = any(letter == "G" and value in _MACRO_CALLS for letter, value in block.codes)
         for letter, value in block.codes:
-            if type(value) is str and not (arguments and letter != "G"):  # G65 arguments are any numbers
-                self._check_format(block, letter, value)
+            if type(value) is str:
+                argument = arguments and letter != "G"  # a G65/G66 argument: any number, passed as written
+                if not argument:
+                    self._check_format(block, letter, value)
                 number = float(value)
-                point = "." in value
+                point = argument or "." in value
             else:
                 number = self._evaluate(value, block)
                 if number is UNKNOWN:

@@ -213,6 +213,16 @@ def test_subprogram_call_and_block_delete_warn():
     assert "M98" in text and "block delete" in text
 
 
+@pytest.mark.parametrize("call", ["G65 P9010 A1. B2", "G66 P9010 A1.\nX20. Z1.\nG67"])
+def test_macro_calls_with_number_arguments_warn_and_lose_the_position(call):
+    """Arguments are any numbers (no format alarm); what the macro does is not interpreted."""
+    reporter = Reporter()
+    result = moves(START + call + "\nG01 W-1.\nG00 X50. Z5.\n", reporter)
+    assert any(m.x0 is None for m in result)
+    assert (result[-1].x1, result[-1].z1) == (25.0, 5.0)
+    assert "macro" in str(reporter.warnings[0])
+
+
 def test_unknown_g_code_and_unsupported_codes_pass_through_with_a_warning():
     reporter = Reporter()
     result = moves(START + "G187 P1\nG01 X50.\nG00 X20. Z5.\n", reporter)
