@@ -21,8 +21,14 @@ from .diagnostics import STDIN_NAME, Location, ProgramError
 MAX_PROGRAM_BYTES = 2 * 1024**3  #: 2 GiB: far beyond any control's memory
 
 _LABEL = re.compile(rb"(?m)^[ \t]*(?:/[1-9]?[ \t]*)?[Nn][ \t]*(\d+)")
-_GOTO = re.compile(rb"(?i)goto[ \t]*(\d+|[#\[])")
-_CALL = re.compile(rb"(?i)(?:m[ \t]*0*98|g[ \t]*0*65)[^\r\n(]*?p[ \t]*(\d+)")
+# Searched in lower-cased text, each starting with a literal: an alternation or a
+# case-blind pattern would be tried at every G of the program.
+_GOTO = re.compile(rb"goto[ \t]*(\d+|[#\[])")
+# The control ignores spaces, even inside a number: ``M 0 98 P 3 1000`` calls O1000 three times.
+_CALLS = tuple(
+    re.compile(rb"%s[ \t]*(?:0[ \t]*)*%s[ \t]*%s(?![ \t]*\d)[^\r\n(]*?p[ \t]*(\d[\d \t]*)" % code)
+    for code in ((b"m", b"9", b"8"), (b"g", b"6", b"5"))
+)
 
 
 class LabelIndex:
@@ -109,8 +115,10 @@ class Source:
         calls: dict[int, int] = {}
         computed = False
         for chunk in self._chunks():
-            for match in _CALL.finditer(chunk):
-                number = int(match.group(1))
+            chunk = chunk.lower()
+            called = {match.start(1): match.group(1) for pattern in _CALLS for match in pattern.finditer(chunk)}
+            for spelled in called.values():  # one P word is one call, whichever code reads it
+                number = int(spelled.replace(b" ", b"").replace(b"\t", b""))
                 number = number % 10000 if number > 9999 else number  # M98 P31234: 3 times O1234
                 calls[number] = calls.get(number, 0) + 1
             for match in _GOTO.finditer(chunk):
