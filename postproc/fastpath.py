@@ -20,17 +20,18 @@ _ORDINARY = re.compile(
     r"(?:(?P<n>[Nn])[ \t]*(?P<label>\d+)[ \t]*)?"
     r"(?P<words>(?:[A-MP-Za-mp-z][ \t]*[+-]?(?:\d+\.?\d*|\.\d+)[ \t]*)*)"
     r"(?:(?P<comment>\([^()\r\n]*\))[ \t]*)?"
-    r"(?:(?P<eob>;)[ \t]*)?"
+    r"(?:(?P<eob>;)[ \t]*)?",
+    re.ASCII,  # a control reads only ASCII digits
 )
-_WORD = re.compile(r"([A-Z])[ \t]*([+-]?(?:\d+\.?\d*|\.\d+))")
-_WORD_SPELLING = re.compile(r"[A-Za-z][ \t]*[+-]?(?:\d+\.?\d*|\.\d+)")
+_WORD = re.compile(r"([A-Z])[ \t]*([+-]?(?:\d+\.?\d*|\.\d+))", re.ASCII)
+_WORD_SPELLING = re.compile(r"[A-Za-z][ \t]*[+-]?(?:\d+\.?\d*|\.\d+)", re.ASCII)
 _fullmatch = _ORDINARY.fullmatch
 _EMPTY = Detail((), (), None, None)
 _findall = _WORD.findall
 
 
 _TAPE = re.compile(r"[ \t]*%[ \t]*")
-_HEADER = re.compile(r"[ \t]*[Oo][ \t]*\d+[ \t]*(?:(?P<comment>\([^()\r\n]*\))[ \t]*)?(?:(?P<eob>;)[ \t]*)?")
+_HEADER = re.compile(r"[ \t]*[Oo][ \t]*\d+[ \t]*(?:(?P<comment>\([^()\r\n]*\))[ \t]*)?(?:(?P<eob>;)[ \t]*)?", re.ASCII)
 
 
 def read_ordinary(text: str, line: int, eol: str) -> Block | None:

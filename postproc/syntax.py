@@ -65,6 +65,8 @@ def _explain(exc: LarkError, text: str) -> tuple[str, int]:
             return "comment is not closed: '(' without its ')'", col
         if char == ")":
             return "')' without a '(' opening a comment", col
+        if char and (not char.isprintable() or ord(char) > 126):
+            return f"a character the control does not read (U+{ord(char):04X}): is this a text program?", col
         if char == "." and before and (before[-1].isdigit() or before[-1] == "."):
             return "a second decimal point in one number (FANUC alarm PS0007)", col
         if char.isdigit() or char in "+-.":
@@ -77,8 +79,6 @@ def _explain(exc: LarkError, text: str) -> tuple[str, int]:
             return f"address {before[-1].upper()} has no value (FANUC alarm PS0005)", col - 1
         if char.isalpha() and char.upper() == "N":
             return "a sequence number N must begin the block", col
-        if not char.isprintable() or ord(char) > 126:
-            return f"a character the control does not read (U+{ord(char):04X}): is this a text program?", col
         return f"unexpected character {char!r}", col
     if isinstance(exc, UnexpectedToken):
         token = exc.token

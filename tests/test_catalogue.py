@@ -49,6 +49,7 @@ PROGRAMS = [
     ("G00 X1. X2.\n", "1:9: error: address X appears twice in one block"),
     ("G00 X1. Z1.\nG04 X1. G28 U0.\n", "2:9: error: two G codes of group 00 in one block (G04 and G28)"),
     ("G00 X\x001.\n", "1:6: error: a character the control does not read (U+0000): is this a text program?"),
+    ("G00 X\u0661\u0662.\n", "1:6: error: a character the control does not read (U+0661): is this a text program?"),
     ("G00 X1.; G01 Z1.\n", "1:10: error: only a comment may follow ';', the end of the block"),
     ("G01 X1. N10\n", "1:9: error: a sequence number N must begin the block"),
     ("#1=#1-#11:\n", "1:10: error: unexpected character ':'"),
