@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import tomllib
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 from .diagnostics import Location, OptionError
@@ -44,8 +42,8 @@ class MachineProfile:
     z_limits: tuple[float, float] | None = None  #: soft limits of z (mm, work coordinates)
     tolerance: float | None = None  #: default tolerance; None: formats.md's rule
     max_correction: float = 0.1  #: largest correction allowed anywhere
-    model_max_age_days: float = 30.0
-    plugin_time_limit_s: float = 60.0  #: a compensator call that runs longer is stopped and named  #: a saved model measured longer ago than this gets a warning
+    model_max_age_days: float = 30.0  #: a saved model measured longer ago than this gets a warning
+    plugin_time_limit_s: float = 60.0  #: a compensator call that runs longer is stopped and named
     output_decimals_mm: int = 3  #: decimals written for mm values
     output_decimals_inch: int = 4  #: decimals written for inch values
     spindle_speed_fluctuation: bool = False
@@ -81,8 +79,11 @@ _FIELDS = {f.name: f for f in dataclasses.fields(MachineProfile) if f.name != "e
 
 def load(path: str) -> MachineProfile:
     """Read a profile from TOML; unknown keys are refused (``x-`` keys are kept aside)."""
+    import tomllib  # only when a profile is given: every run starts faster without it
+
     try:
-        data = tomllib.loads(Path(path).read_text("utf-8"))
+        with open(path, encoding="utf-8") as handle:
+            data = tomllib.loads(handle.read())
     except OSError as exc:
         raise OptionError(f"cannot read machine profile: {exc.strerror}", Location(path)) from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
