@@ -88,10 +88,9 @@ class Pipeline:
     def compensate_source(self, source: Source, spool: Spool) -> Summary:
         """Compensate one program into a spool (committed by the caller)."""
         if self.core is None:
-            from .program import interpret_source
+            from .program import tally_source
 
-            for _ in interpret_source(source, self.profile, self.reporter):
-                pass
+            tally_source(source, self.profile, self.reporter)
             with source.open_binary() as raw:
                 while chunk := raw.read(1 << 20):
                     spool.write(chunk)

@@ -2,10 +2,12 @@
 
 One line of a part program is one :class:`Block`. A block keeps its exact text, its
 line ending and its 1-based line number, so an unchanged block is written back byte for
-byte. What the interpreter needs (``codes``: address letters and values) is computed once
-when the block is read; word spellings and columns (:attr:`Block.words`) are computed
-only when asked for, because a million-block program should not pay for objects that only
-an error message or a rewritten block needs.
+byte. What the interpreter needs (``codes``: address letters and values) is computed when
+the block is read, or, for a block in canonical form, kept as the values of its fixed
+addresses (:attr:`Block.fields`) and turned into ``codes`` only when asked for; word
+spellings and columns (:attr:`Block.words`) are computed only when asked for, because a
+million-block program should not pay for objects that only an error message or a
+rewritten block needs.
 
 Conventions: columns are 0-based offsets inside the model and 1-based in every message.
 """
@@ -27,6 +29,9 @@ TAPE = "tape"  #: a ``%`` tape mark
 HEADER = "header"  #: a program number ``O1234`` or name ``<NAME>``
 BLOCK = "block"  #: an ordinary block: words, comments, a macro statement
 TRAILER = "trailer"  #: text after the closing ``%``; the control never reads it
+
+#: The addresses of a canonical block, in the order they must stand (see :mod:`postproc.fastpath`).
+CANONICAL_LETTERS = "NGXZIKRF"
 
 
 @dataclass(frozen=True, slots=True)
@@ -66,7 +71,8 @@ class Detail:
 class Block:
     """One line of the program."""
 
-    __slots__ = ("line", "text", "eol", "kind", "label", "delete", "codes", "statement", "_detail", "_detailer")
+    __slots__ = ("line", "text", "eol", "kind", "label", "delete", "_codes", "statement", "_detail", "_detailer",
+                 "fields")
 
     def __init__(
         self,
@@ -80,6 +86,7 @@ class Block:
         statement: "Statement | None" = None,
         detail: Detail | None = None,
         detailer=None,
+        fields: "tuple[str | None, ...] | None" = None,
     ):
         self.line = line  #: 1-based line number
         self.text = text  #: the line without its ending
@@ -87,10 +94,23 @@ class Block:
         self.kind = kind
         self.label = label  #: N number, or None
         self.delete = delete  #: block delete level (1 for ``/``), or None
-        self.codes = codes  #: (LETTER, value) pairs in order, label excluded
+        self._codes = codes  # None for a canonical block until asked for
         self.statement = statement  #: the macro statement, if any
         self._detail = detail
         self._detailer = detailer
+        #: For a block in canonical form (see :mod:`postproc.fastpath`): the values of its
+        #: N G X Z I K R F words as written, None where absent. None for every other block.
+        self.fields = fields
+
+    @property
+    def codes(self) -> tuple[tuple[str, Value], ...]:
+        """(LETTER, value) pairs in order, label excluded."""
+        codes = self._codes
+        if codes is None:
+            codes = self._codes = tuple(
+                (letter, value) for letter, value in zip(CANONICAL_LETTERS[1:], self.fields[1:]) if value is not None
+            )
+        return codes
 
     @property
     def raw(self) -> str:

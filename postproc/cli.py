@@ -256,14 +256,11 @@ def fit(plugins, ballbar, probe, calibration, options, machine, note, force, out
 @_reported
 def check(input, machine):
     """Parse and interpret a program: diagnostics only, no output program."""
-    from .program import interpret_source
+    from .program import tally_source
 
     reporter = Reporter(sys.stderr)
-    blocks = moves = 0
     with Source(input) as source:
-        for step in interpret_source(source, _profile(machine), reporter):
-            blocks += 1
-            moves += len(step.moves)
+        blocks, moves = tally_source(source, _profile(machine), reporter)
         name = source.name
     reporter.close()
     click.echo(f"{name}: ok: {blocks} lines, {moves} moves, {len(reporter.warnings)} warnings", err=True)

@@ -5,7 +5,15 @@ numbers, at most one simple comment and an optional ``;``. Such a block is about
 per cent of any real program; reading it with a regular expression instead of the LALR
 parser is what lets postproc run near the speed of a bare tokenizer. Anything else
 (macros, headers, block delete, nested comments, spaces inside numbers, mistakes) goes to
-the grammar. ``tests/test_fastpath.py`` proves on the corpus and on generated programs
+the grammar.
+
+Most blocks a CAM system writes are in *canonical form*: upper-case words G (00-03),
+X, Z, I, K, R (with a decimal point) and F, in that order, single spaces at most, then a
+simple comment and ``;``. A canonical block keeps its values as written in
+:attr:`Block.fields` and builds its ``codes`` only when asked: the interpreter reads the
+fields directly, which is what brings a large program near the tokenizer's speed.
+
+``tests/test_fastpath.py`` proves on the corpus and on generated programs
 that both paths give the same block for every line the fast path accepts.
 """
 
@@ -14,6 +22,19 @@ from __future__ import annotations
 import re
 
 from .blocks import BLANK, BLOCK, HEADER, TAPE, Block, Comment, Detail, Word
+
+# Canonical values: lengths with their decimal point (no least-input-increment scaling) and
+# at most 8 digits (no significant-digit alarm); a feed of at most 8 digits. ASCII digits only.
+_LENGTH = r"([+-]?+(?:\d{1,4}+\.\d{0,4}+|\.\d{1,4}+))"
+_CANONICAL = re.compile(
+    r"(?:N(\d++) ?)?"
+    r"(?:G(0?[0-3]) ?)?"
+    rf"(?:X{_LENGTH} ?)?(?:Z{_LENGTH} ?)?(?:I{_LENGTH} ?)?(?:K{_LENGTH} ?)?(?:R{_LENGTH} ?)?"
+    r"(?:F(\d{1,4}+(?:\.\d{0,4}+)?+|\.\d{1,4}+) ?)?"
+    r"(?:\([^()\r\n]*\) ?)?;?",
+    re.ASCII,
+)
+canonical_fields = _CANONICAL.fullmatch
 
 _ORDINARY = re.compile(
     r"[ \t]*"
@@ -36,6 +57,10 @@ _HEADER = re.compile(r"[ \t]*[Oo][ \t]*\d+[ \t]*(?:(?P<comment>\([^()\r\n]*\))[ 
 
 def read_ordinary(text: str, line: int, eol: str) -> Block | None:
     """The block for an ordinary line, or None when the line needs the grammar."""
+    if text:
+        match = canonical_fields(text)
+        if match is not None:
+            return canonical_block(line, text, eol, match.groups())
     match = _fullmatch(text)
     if match is None:
         return _program_start(text, line, eol)
@@ -46,10 +71,17 @@ def read_ordinary(text: str, line: int, eol: str) -> Block | None:
         return Block(line, text, eol, BLANK, None, None, (), None, _EMPTY)
     else:
         codes = ()
-    return Block(line, text, eol, BLOCK, None if label is None else int(label), None, codes, None, None, _detail)
+    return Block(line, text, eol, BLOCK, None if label is None else int(label), None, codes, None, None, detail_of_ordinary)
 
 
-def _detail(text: str) -> Detail:
+def canonical_block(line: int, text: str, eol: str, fields: tuple) -> Block:
+    """The block of a canonical line, from its fields (N G X Z I K R F, None where absent)."""
+    label = fields[0]
+    return Block(line, text, eol, BLOCK, None if label is None else int(label), None, None, None, None,
+                 detail_of_ordinary, fields)
+
+
+def detail_of_ordinary(text: str) -> Detail:
     match = _ORDINARY.fullmatch(text)
     start, end = match.span("words")
     words = tuple(

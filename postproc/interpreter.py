@@ -21,17 +21,19 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field, replace
-from typing import Iterable, Iterator
+from typing import TYPE_CHECKING, Iterable, Iterator
 
 from . import gcodes as G
-from . import macro
 from .blocks import BLOCK, HEADER, Block
 from .corners import CornerError, corner_moves
 from .diagnostics import InterpretationError, Location, Reporter
-from .macro import UNKNOWN, VACANT
+from .fastpath import canonical_block
 from .motion import ARC, CONTOUR, CYCLE, LINE, RAPID, REPLAY, RUN, THREAD, Modal, Move, Step
 from .profile import DEFAULT, MachineProfile
 from .source import LabelIndex
+
+if TYPE_CHECKING:
+    from . import macro
 
 INCH = 25.4
 
@@ -42,6 +44,7 @@ _FAST_MOTION = {spelling: mode for mode, spellings in ((0, ("0", "00", "000")), 
 _FAST_MODES = frozenset((0, 10, 20, 30))
 _FAST_LETTERS = frozenset("XZUWIKRFS")
 _FAST_LENGTHS = frozenset("XZUWIKR")
+_new_move = tuple.__new__  # Move(...) without its Python-level __new__: one per block
 _FLOW_M = frozenset(("2", "02", "002", "30", "030", "98", "098", "99", "099"))
 
 # The control's format rules for numbers as written.
@@ -122,6 +125,7 @@ class Interpreter:
         self._jumps: bool | None = None  # whether any label may be a jump target
         self._reread = reread  # callable(first_line, last_line) -> Iterable[Block], for contours placed earlier
         self.table = G.SYSTEMS[profile.gcode_system]
+        self._diameter = 0.5 if profile.diameter_x else 1.0  # program X to radius
         self.x: float | None = None
         self.z: float | None = None
         self.modal = Modal(motion=G.G00, inch=False, absolute=True, per_rev=True)
@@ -142,28 +146,84 @@ class Interpreter:
     # ------------------------------------------------------------------ driving
 
     def run(self, blocks: Iterable[Block]) -> Iterator[Step]:
+        canonical = self._canonical
+        steady = self._steady()
         for block in blocks:
-            self._fresh_corner = None
-            step = self._step(block)
-            fresh = self._fresh_corner
-            if self._corner is not None:
-                self._pending.append(step)
-                if self._join_corner(step) and fresh is not None:
-                    self._corner = (step, *fresh)
-            elif fresh is not None:
+            fields = block.fields
+            if fields is not None and steady:  # a canonical block changes none of what _steady reads
+                step = canonical(block, fields, True)
+                if step is not None:
+                    yield step
+                    continue
+            yield from self._general(block)
+            steady = self._steady()
+        self._finish()
+
+    def tally(self, blocks: Iterable[Block | tuple]) -> tuple[int, int]:
+        """Interpret every block and count blocks and moves, keeping no step: all that
+        ``check`` and an identity run need. Takes the reader's light stream
+        (``read_blocks(..., light=True)``): a canonical line becomes a block only when
+        the general path or an alarm needs one."""
+        canonical = self._canonical
+        steady = self._steady()
+        count = moves = 0
+        for block in blocks:
+            if type(block) is tuple:
+                if steady:  # a canonical block changes none of what _steady reads
+                    moved = canonical(block, block[3], False)
+                    if moved is not None:
+                        count += 1
+                        moves += moved
+                        continue
+                block = canonical_block(*block)
+            for step in self._general(block):
+                count += 1
+                moves += len(step.moves)
+            steady = self._steady()
+        self._finish()
+        return count, moves
+
+    def _general(self, block: Block) -> list[Step]:
+        """Interpret a block by the general path; the steps now ready, in order (a step
+        with a corner word waits for the next move)."""
+        self._fresh_corner = None
+        step = self._step(block)
+        fresh = self._fresh_corner
+        ready = []
+        if self._corner is not None:
+            self._pending.append(step)
+            if self._join_corner(step) and fresh is not None:
                 self._corner = (step, *fresh)
-                self._pending.append(step)
-            else:
-                yield step
-            if self._corner is None and self._pending:
-                yield from self._pending
-                self._pending = []
+        elif fresh is not None:
+            self._corner = (step, *fresh)
+            self._pending.append(step)
+        else:
+            ready.append(step)
+        if self._corner is None and self._pending:
+            ready += self._pending
+            self._pending = []
+        return ready
+
+    def _finish(self) -> None:
         if self._corner is not None:
             step, _, kind, _ = self._corner
             raise InterpretationError(
                 f"corner {kind} needs a following G01/G02/G03 move (FANUC alarm PS0051)",
                 self._location(step.block, self._col(step.block, kind)),
             )
+
+    def _steady(self) -> bool:
+        """Whether a canonical block may take the shortest route: no contour being read or
+        awaited, no region skipped, no corner waiting, no drilling or modal macro in force."""
+        return (
+            self._fast
+            and self._corner is None
+            and self._capture is None
+            and self._expect is None
+            and self._skip_until is None
+            and not self._drilling
+            and not self._modal_macro
+        )
 
     def _join_corner(self, step: Step) -> bool:
         """Cut the held corner with this step's first move; False while still waiting."""
@@ -219,7 +279,7 @@ class Interpreter:
             and not self._drilling
             and not self._modal_macro
         ):
-            step = self._ordinary(block)
+            step = self._ordinary(block) if block.fields is None else self._canonical(block, block.fields)
             if step is not None:
                 step.shared = self._shared
                 return step
@@ -390,9 +450,91 @@ class Interpreter:
         self.x, self.z = x1, z1
         return Step(block, (move,), modal)
 
+    def _canonical(self, block: Block | tuple, fields: tuple, keep: bool = True) -> Step | int | None:
+        """A canonical block (:mod:`postproc.fastpath`), read from its fields: the same
+        result as :meth:`_ordinary`, without walking its words. None to take the general
+        path; with ``keep`` False, the number of moves instead of the step, and ``block``
+        may be the reader's light tuple."""
+        label = fields[0]
+        if label is not None and self._is_jump_target(int(label)):
+            self._forget("a jump may arrive here")
+        _, g, x, z, i, k, r, f = fields
+        modal = self.modal
+        motion = modal.motion if g is None else _FAST_MOTION[g]
+        if motion not in _FAST_MODES:
+            return None
+        inch = modal.inch
+        feed = modal.feed if f is None else (float(f) * INCH if inch else float(f))
+        circle = i is not None or k is not None or r is not None
+        if x is None and z is None:
+            if circle:
+                return None
+        elif motion == 10:
+            if feed is None or feed == 0.0 or circle:
+                return None
+        elif motion != 0 and (modal.plane != 18 or self.x is None or self.z is None):
+            return None
+        if feed != modal.feed:
+            modal = self._with(modal, "feed", feed)
+        if motion != modal.motion:
+            modal = self._with(modal, "motion", motion)
+        self.modal = modal
+        if x is None and z is None:
+            return self._shared_step(block, (), modal) if keep else 0
+        scale = INCH if inch else 1.0
+        x0, z0 = self.x, self.z
+        if x is None:
+            x1 = x0
+        elif modal.absolute:
+            x1 = float(x) * scale * self._diameter
+        else:
+            x1 = None if x0 is None else x0 + float(x) * scale * self._diameter
+        if z is None:
+            z1 = z0
+        elif modal.absolute:
+            z1 = float(z) * scale
+        else:
+            z1 = None if z0 is None else z0 + float(z) * scale
+        if motion >= 20:
+            values = {}
+            if i is not None:
+                values["I"] = float(i) * scale
+            if k is not None:
+                values["K"] = float(k) * scale
+            if r is not None:
+                values["R"] = float(r) * scale
+            if not keep:
+                if type(block) is tuple:  # the block only an alarm would need
+                    block = canonical_block(*block)
+                self._arc_centre(block, values, motion == 20, x1, z1)
+                self.x, self.z = x1, z1
+                return 1
+            step = self._arc(block, values, motion == 20, x1, z1)
+            step.shared = self._shared
+            return step
+        self.x, self.z = x1, z1
+        if not keep:
+            return 1
+        move = _new_move(Move, (RAPID if motion == 0 else LINE, block.line, x0, z0, x1, z1, None, None, None, RUN,
+                                modal.feed, modal.per_rev, modal.comp, modal.tool, x1 is not None and z1 is not None,
+                                modal.offset))
+        return self._shared_step(block, (move,), modal)
+
+    def _shared_step(self, block: Block, moves: tuple[Move, ...], modal: Modal) -> Step:
+        step = Step(block, moves, modal)
+        if self._shared:
+            step.shared = True
+        return step
+
     # ------------------------------------------------------------------ macro statements
 
+    # Macro values exist only in blocks the grammar read, which imported the macro module:
+    # these methods import it where they need it, and a program without macros never does.
+
     def _statement(self, block: Block) -> Step:
+        from . import macro
+        from .macro import UNKNOWN
+
         statement = block.statement
         kind = type(statement)
         if kind is macro.Assignment:
@@ -418,6 +560,8 @@ class Interpreter:
         return Step(block, (), self.modal)
 
     def _assign(self, assignment: macro.Assignment, block: Block) -> None:
+        from .macro import UNKNOWN
+
         number = self._variable_number(assignment.target, block)
         value = self._evaluate(assignment.value, block)
         if number is None:
@@ -431,6 +575,8 @@ class Interpreter:
             self.variables[number] = value
 
     def _variable_number(self, variable: macro.Variable, block: Block) -> int | None:
+        from .macro import UNKNOWN
+
         if variable.name is not None:
             return None
         if isinstance(variable.index, int):
@@ -441,6 +587,8 @@ class Interpreter:
         return int(round(value))
 
     def _evaluate(self, expr, block: Block):
+        from . import macro
+
         try:
             return macro.evaluate(expr, self.variables)
         except macro.MacroValueError as exc:
@@ -465,6 +613,8 @@ class Interpreter:
                 number = float(value)
                 point = argument or "." in value
             else:
+                from .macro import UNKNOWN, VACANT
+
                 number = self._evaluate(value, block)
                 if number is UNKNOWN:
                     words.unknown[letter] = "its value is only known when the program runs"
@@ -678,12 +828,11 @@ class Interpreter:
     def _role(self) -> str:
         return CONTOUR if self._capture is not None else RUN
 
-    def _move(self, kind: str, block: Block, x1, z1, **arc) -> Move:
+    def _move(self, kind: str, block: Block, x1, z1, xc=None, zc=None, cw=None, exact: bool = True) -> Move:
         modal = self.modal
-        return Move(
-            kind, block.line, self.x, self.z, x1, z1, role=self._role(), feed=modal.feed, per_rev=modal.per_rev,
-            comp=modal.comp, tool=modal.tool, offset=modal.offset, **arc,
-        )
+        return _new_move(Move, (kind, block.line, self.x, self.z, x1, z1, xc, zc, cw,
+                                CONTOUR if self._capture is not None else RUN, modal.feed, modal.per_rev, modal.comp,
+                                modal.tool, exact, modal.offset))
 
     # ------------------------------------------------------------------ motion
 
@@ -732,6 +881,15 @@ class Interpreter:
         return step
 
     def _arc(self, block: Block, values: dict[str, float], cw: bool, x1, z1) -> Step:
+        xc, zc = self._arc_centre(block, values, cw, x1, z1)
+        move = self._move(ARC, block, x1, z1, xc=xc, zc=zc, cw=cw)
+        self.x, self.z = x1, z1
+        step = Step(block, (move,), self.modal)
+        self._note_corner(step, block, values)
+        return step
+
+    def _arc_centre(self, block: Block, values: dict[str, float], cw: bool, x1, z1) -> tuple[float, float]:
+        """The centre of the arc from here to (x1, z1), or the control's alarm."""
         if None in (self.x, self.z, x1, z1):
             self.x, self.z = x1, z1
             raise _Uninterpretable("an arc from or to a position that is not known", None,
@@ -778,14 +936,12 @@ class Interpreter:
                     f"(limit {tolerance} mm, FANUC alarm PS0020)",
                     self._location(block, self._col(block, "I") if "I" in values else self._col(block, "K")),
                 )
-        move = self._move(ARC, block, x1, z1, xc=xc, zc=zc, cw=cw)
-        self.x, self.z = x1, z1
-        step = Step(block, (move,), self.modal)
-        self._note_corner(step, block, values)
-        return step
+        return xc, zc
 
     def _note_corner(self, step: Step, block: Block, values: dict) -> None:
         """Remember a ,C or ,R word: the corner is cut when the next move is known."""
+        if ",C" not in values and ",R" not in values:
+            return
         for kind in (",C", ",R"):
             if kind in values:
                 self._fresh_corner = (len(step.moves) - 1, kind, values[kind])

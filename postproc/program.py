@@ -14,6 +14,27 @@ from .source import Source
 
 def interpret_source(source: Source, profile: MachineProfile = DEFAULT, reporter: Reporter | None = None) -> Iterator[Step]:
     """The steps of a program, streamed; raises ProgramError on the first mistake."""
+    interpreter, blocks = _prepare(source, profile, reporter)
+    try:
+        yield from interpreter.run(blocks)
+    except InterpretationError:
+        _syntax_first(blocks)
+        raise
+
+
+def tally_source(source: Source, profile: MachineProfile = DEFAULT, reporter: Reporter | None = None) -> tuple[int, int]:
+    """Interpret a whole program for its diagnostics: (blocks, moves). Raises like
+    :func:`interpret_source`, keeps no step."""
+    interpreter, blocks = _prepare(source, profile, reporter, light=True)
+    try:
+        return interpreter.tally(blocks)
+    except InterpretationError:
+        _syntax_first(blocks)
+        raise
+
+
+def _prepare(source: Source, profile: MachineProfile, reporter: Reporter | None,
+             light: bool = False) -> tuple[Interpreter, Iterator]:
     reporter = reporter if reporter is not None else Reporter()
 
     def reread(first: int, last: int):
@@ -24,12 +45,11 @@ def interpret_source(source: Source, profile: MachineProfile = DEFAULT, reporter
                 yield block
 
     interpreter = Interpreter(profile, reporter, source.name, labels=lambda: source.labels, reread=reread)
-    blocks = read_blocks(source.lines(), source.name, reporter)
-    try:
-        yield from interpreter.run(blocks)
-    except InterpretationError:
-        # A block the control cannot even read is the more basic mistake: a program is
-        # refused for its syntax first, wherever that lies.
-        for _ in blocks:
-            pass
-        raise
+    return interpreter, read_blocks(source.lines(), source.name, reporter, light=light)
+
+
+def _syntax_first(blocks: Iterator) -> None:
+    """A block the control cannot even read is the more basic mistake: a program is
+    refused for its syntax first, wherever that lies (reading the rest raises it)."""
+    for _ in blocks:
+        pass

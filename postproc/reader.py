@@ -11,30 +11,35 @@ from typing import Iterable, Iterator
 
 from .blocks import BLANK, BLOCK, TAPE, TRAILER, Block
 from .diagnostics import Location, Reporter
-from .fastpath import read_ordinary
+from .fastpath import canonical_block, canonical_fields, read_ordinary
 
 
-def read_blocks(lines: Iterable[str], file: str, reporter: Reporter | None = None) -> Iterator[Block]:
-    """Blocks of a program given as lines, each with its ending; raises ProgramSyntaxError."""
+def read_blocks(lines: Iterable[str], file: str, reporter: Reporter | None = None, *,
+                light: bool = False) -> Iterator[Block | tuple]:
+    """Blocks of a program given as lines, each with its ending; raises ProgramSyntaxError.
+
+    With ``light``, a canonical line comes as the tuple ``(line, text, eol, fields)`` rather
+    than a block (:func:`~postproc.fastpath.canonical_block` makes it one): for a consumer that
+    seldom needs the block, such as the interpreter's tally.
+    """
     started = ended = False
     line = 0
-    for text in lines:
+    for raw in lines:
         line += 1
-        if text[-1:] == "\n":
-            if text[-2:-1] == "\r":
-                text, eol = text[:-2], "\r\n"
-            else:
-                text, eol = text[:-1], "\n"
-        elif text[-1:] == "\r":
-            text, eol = text[:-1], "\r"
-        else:
-            eol = ""
+        text = raw.rstrip("\r\n")  # one ending per line: LF, CRLF or a lone CR
+        eol = raw[len(text):]
         if ended:
             if text.strip() and reporter is not None and ended is True:
                 reporter.warn("text after the closing '%' is never read by the control", Location(file, line, 1, text))
                 ended = "warned"
             yield Block(line, text, eol, TRAILER)
             continue
+        if text:
+            match = canonical_fields(text)
+            if match is not None:  # read_ordinary's first case, written out: most lines are canonical
+                started = True
+                yield (line, text, eol, match.groups()) if light else canonical_block(line, text, eol, match.groups())
+                continue
         block = read_ordinary(text, line, eol)
         if block is None:
             from .syntax import parse_block  # the grammar, built on the first unusual line

@@ -80,3 +80,29 @@ def test_arbitrary_fragments_agree_or_are_refused_by_both(parts):
                                   "O12(A(B))", "%(C)", "<NAME>", "O1234 ; (C)"])
 def test_tape_marks_and_headers_agree(text):
     _agree(text)
+
+
+@pytest.mark.parametrize("text, canonical", [
+    ("N40 G01 X100.317 Z-0.425", True),
+    ("G03 X99.886 Z-4.079 I-5.074 K0.", True),
+    ("G01 X98.466 Z-8.417 F0.150 (FINISH)", True),
+    ("G02 X10. Z-5. R5.;", True),
+    ("X.5 Z-.25", True),
+    ("N10", True),
+    ("(COMMENT ONLY)", True),
+    ("G01 X100 Z-1.", False),  # no decimal point: least input increments
+    ("G01 X1.23456 Z-1.", False),  # more digits than the canonical form takes
+    ("G01 Z-1. X10.", False),  # words out of order
+    ("g01 x10. z-1.", False),  # lower case
+    ("G01  X10.", False),  # two spaces
+    ("G01 X10. M08", False),  # an M code
+    ("G00 X\u0661\u0662.", False),  # digits that are not ASCII
+])
+def test_canonical_form(text, canonical):
+    """Canonical lines keep their fields; every line still reads as the grammar reads it."""
+    block = read_ordinary(text, 1, "\n")
+    assert (block is not None and block.fields is not None) == canonical
+    if block is not None:
+        _agree(text)
+    if canonical:
+        assert dict(block.codes) == {letter: value for letter, value in zip("GXZIKRF", block.fields[1:]) if value}
