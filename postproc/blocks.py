@@ -15,7 +15,7 @@ Conventions: columns are 0-based offsets inside the model and 1-based in every m
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Union
+from typing import TYPE_CHECKING, NamedTuple, Union
 
 if TYPE_CHECKING:
     from .macro import Expr, Statement
@@ -34,9 +34,12 @@ TRAILER = "trailer"  #: text after the closing ``%``; the control never reads it
 CANONICAL_LETTERS = "NGXZIKRF"
 
 
-@dataclass(frozen=True, slots=True)
-class Word:
-    """An address and its value, with the spelling the program used."""
+class Word(NamedTuple):
+    """An address and its value, with the spelling the program used.
+
+    Immutable; a named tuple rather than a frozen dataclass because every replaced block
+    has its words spelled out, and a tuple is built several times faster.
+    """
 
     letter: str  #: upper-case address; ``",C"``/``",R"``/``",A"`` for corner words
     text: str  #: exactly as written, e.g. ``"X 10."`` or ``"x-#1"``

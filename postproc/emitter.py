@@ -36,20 +36,30 @@ class Style:
     @classmethod
     def of(cls, block: Block) -> "Style":
         """The style a block is written in."""
-        words = block.words
-        letters = [w.text[0] for w in words if w.text[:1].isalpha()]
-        lower = bool(letters) and all(letter.islower() for letter in letters)
-        separator = " "
-        if len(words) >= 2:
-            gaps = [block.text[a.end : b.col] for a, b in zip(words, words[1:])]
-            if all(gap == "" for gap in gaps):
-                separator = ""
-        g_words = [w for w in words if w.letter == "G" and w.is_number]
-        two_digit = all(len(w.value) >= 2 for w in g_words) if g_words else True
-        numbers = [w.value for w in words if w.letter in "XZUWIKRF" and w.is_number and "." in w.value]
-        trim = not any(_TRAILING_ZERO.search(value) for value in numbers)
-        leading_zero = not any(_LEADING_DOT.match(value) for value in numbers)
-        return cls(lower, separator, two_digit, trim, leading_zero, block.has_eob)
+        text = block.text
+        lower = None
+        joined = True  # no gap between any two words
+        two_digit = trim = leading_zero = True
+        end = None
+        for word in block.words:
+            spelled = word.text
+            first = spelled[0]
+            if first.isalpha():
+                lower = first.islower() if lower is None else lower and first.islower()
+            if end is not None and text[end:word.col]:
+                joined = False
+            end = word.col + len(spelled)
+            value = word.value
+            if type(value) is not str:
+                continue
+            letter = word.letter
+            if letter == "G":
+                two_digit = two_digit and len(value) >= 2
+            elif letter in "XZUWIKRF" and "." in value:
+                trim = trim and not _TRAILING_ZERO.search(value)
+                leading_zero = leading_zero and not _LEADING_DOT.match(value)
+        separator = "" if joined and len(block.words) >= 2 else " "
+        return cls(bool(lower), separator, two_digit, trim, leading_zero, block.has_eob)
 
     def number(self, value: float, decimals: int) -> str:
         text = f"{value:.{decimals}f}"

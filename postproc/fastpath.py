@@ -45,7 +45,7 @@ _ORDINARY = re.compile(
     re.ASCII,  # a control reads only ASCII digits
 )
 _WORD = re.compile(r"([A-Z])[ \t]*([+-]?(?:\d+\.?\d*|\.\d+))", re.ASCII)
-_WORD_SPELLING = re.compile(r"[A-Za-z][ \t]*[+-]?(?:\d+\.?\d*|\.\d+)", re.ASCII)
+_WORD_SPELLING = re.compile(r"([A-Za-z])[ \t]*([+-]?(?:\d+\.?\d*|\.\d+))", re.ASCII)
 _fullmatch = _ORDINARY.fullmatch
 _EMPTY = Detail((), (), None, None)
 _findall = _WORD.findall
@@ -85,8 +85,7 @@ def detail_of_ordinary(text: str) -> Detail:
     match = _ORDINARY.fullmatch(text)
     start, end = match.span("words")
     words = tuple(
-        Word(m.group(0)[0].upper(), m.group(0), m.start(), _WORD.fullmatch(m.group(0).upper()).group(2))
-        for m in _WORD_SPELLING.finditer(text, start, end)
+        Word(m.group(1).upper(), m.group(0), m.start(), m.group(2)) for m in _WORD_SPELLING.finditer(text, start, end)
     )
     comments = (Comment(match.group("comment"), match.start("comment")),) if match.group("comment") else ()
     label_col = match.start("n") if match.group("n") is not None else None

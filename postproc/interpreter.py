@@ -369,6 +369,10 @@ class Interpreter:
         self._memo[key] = (modal, changed)
         return changed
 
+    def with_motion(self, modal: Modal, motion) -> Modal:
+        """``modal`` in the motion mode ``motion``, remembered like every change of state."""
+        return modal if modal.motion == motion else self._with(modal, "motion", motion)
+
     def _ordinary(self, block: Block) -> Step | None:
         """An ordinary block (G00-G03, axis words, F, S, M) interpreted without the general
         machinery, or None to take the general path. ``tests/test_interpreter_fast.py`` checks

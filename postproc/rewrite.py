@@ -52,7 +52,7 @@ class Piece:
 
     move: Move
     segment: Line | Arc
-    t: np.ndarray  #: sample parameters on ``segment``
+    t: np.ndarray  #: sample parameters on ``segment`` (read-only: shared between pieces)
     x_direction: int
     z_direction: int
 
@@ -603,7 +603,7 @@ class Rewriter:
             checker = self._checker = Interpreter(replace(_profile_for(self.settings), name="self-check"), Reporter(),
                                                   self.file)
         checker.x, checker.z = first.x0, first.z0
-        checker.modal = replace(step.modal, motion=self.mode_now)
+        checker.modal = checker.with_motion(step.modal, self.mode_now)
         where = Location(self.file, step.block.line, None, step.block.text)
         moves: list[Move] = []
         try:

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import numpy as np
 
@@ -67,7 +67,16 @@ def sample_params(nominal: Segment, spacing: float = 0.05, lowest: int = 16, hig
     count = math.ceil(nominal.length / spacing)
     if isinstance(nominal, Arc):
         count = max(count, math.ceil(abs(math.degrees(nominal.sweep)) / 0.5))
-    return np.linspace(0.0, 1.0, min(max(count, lowest), highest) + 1)
+    return unit_steps(min(max(count, lowest), highest) + 1)
+
+
+@lru_cache(maxsize=4096)
+def unit_steps(n: int) -> np.ndarray:
+    """``np.linspace(0, 1, n)``, made once per count and read-only: a program asks for the
+    same few counts thousands of times."""
+    steps = np.linspace(0.0, 1.0, n)
+    steps.setflags(write=False)
+    return steps
 
 
 @dataclass(frozen=True, slots=True)
@@ -117,11 +126,11 @@ class Cut:
         """Points of the path as the control runs it, at most ``spacing`` apart."""
         if not self.is_arc:
             n = max(2, math.ceil(self.length / spacing) + 1)
-            s = np.linspace(0.0, 1.0, n)[:, None]
+            s = unit_steps(n)[:, None]
             return np.array(self.start) + s * (np.array(self.end) - np.array(self.start))
         r0, r1, sweep = self._spiral()
         n = max(8, math.ceil(abs(sweep) * max(r0, r1) / spacing) + 1)
-        s = np.linspace(0.0, 1.0, n)
+        s = unit_steps(n)
         a0 = math.atan2(self.z0 - self.zc, self.x0 - self.xc)
         theta = a0 + s * sweep
         radius = r0 + s * (r1 - r0)
