@@ -77,7 +77,10 @@ class ErrorFunctions(Compensator):
                     "there (--option extrapolate=true extrapolates them)")
             u, w = held_u, held_w
         e_x, e_z = self.errors(u, w, piece.x_direction, piece.z_direction)
-        return -np.column_stack([np.broadcast_to(e_x, u.shape), np.broadcast_to(e_z, w.shape)])
+        shift = np.empty((len(u), 2))  # each column broadcast to the samples, negated
+        np.negative(e_x, out=shift[:, 0])
+        np.negative(e_z, out=shift[:, 1])
+        return shift
 
     def square(self) -> tuple[tuple[float, float], tuple[float, float]]:
         """The square the test circle spans: where the error functions are measured."""
@@ -203,14 +206,15 @@ class Parametric(ErrorFunctions):
 
     def errors(self, u, w, x_direction, z_direction) -> tuple[np.ndarray, np.ndarray]:
         """The sum over APPLIED of each parameter times its :func:`unit_errors`, written out:
-        it runs for every piece of every move."""
-        p = {name: self.parameters[name].value for name in APPLIED}
+        it runs for every piece of every move. ``min(u, 0)`` is ``u - max(u, 0)``, exactly."""
+        p = self.parameters
         u, w = np.asarray(u, dtype=float), np.asarray(w, dtype=float)
-        e_x = (p["scaling_x_plus"] * np.maximum(u, 0.0) + p["scaling_x_minus"] * np.minimum(u, 0.0)
-               - 0.5 * p["backlash_x"] * np.asarray(x_direction, dtype=float) + p["squareness"] * w)
-        e_z = (p["scaling_z_plus"] * np.maximum(w, 0.0) + p["scaling_z_minus"] * np.minimum(w, 0.0)
-               - 0.5 * p["backlash_z"] * np.asarray(z_direction, dtype=float))
-        return e_x + 0.0 * w, e_z + 0.0 * u
+        u_plus, w_plus = np.maximum(u, 0.0), np.maximum(w, 0.0)
+        e_x = (p["scaling_x_plus"].value * u_plus + p["scaling_x_minus"].value * (u - u_plus)
+               - 0.5 * p["backlash_x"].value * np.asarray(x_direction, dtype=float) + p["squareness"].value * w)
+        e_z = (p["scaling_z_plus"].value * w_plus + p["scaling_z_minus"].value * (w - w_plus)
+               - 0.5 * p["backlash_z"].value * np.asarray(z_direction, dtype=float))
+        return e_x, e_z
 
     def model(self) -> dict[str, Any]:
         return {**self._extent(), "parameters": {name: [e.value, e.sigma] for name, e in self.parameters.items()},

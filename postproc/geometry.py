@@ -57,6 +57,10 @@ class Line:
         t = np.asarray(t, dtype=float)
         return np.broadcast_to(np.array(self.direction), t.shape + (2,)).copy()
 
+    def direction_at(self, t: float) -> tuple[float, float]:
+        """The unit tangent at one parameter, as floats (:meth:`tangent_at` takes arrays)."""
+        return self.direction
+
     def param_of(self, points) -> np.ndarray:
         """The parameter of each point's foot on the infinite line (not clamped)."""
         p = as_points(points)
@@ -156,6 +160,12 @@ class Arc:
         theta = self.theta0 + np.asarray(t, dtype=float) * self.sweep
         sign = 1.0 if self.sweep >= 0 else -1.0
         return np.stack([-sign * np.sin(theta), sign * np.cos(theta)], axis=-1)
+
+    def direction_at(self, t: float) -> tuple[float, float]:
+        """The unit tangent at one parameter, as floats (:meth:`tangent_at` takes arrays)."""
+        theta = self.theta0 + t * self.sweep
+        sign = 1.0 if self.sweep >= 0 else -1.0
+        return (-sign * math.sin(theta), sign * math.cos(theta))
 
     def param_of(self, points) -> np.ndarray:
         """Parameter of each point's angle along the sweep; beyond [0, 1] when outside it.

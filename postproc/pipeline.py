@@ -216,13 +216,13 @@ class Pipeline:
                 if shift is None:
                     continue
                 shift = np.asarray(shift, dtype=float)
-                if shift.shape != (len(piece.t), 2) or not np.all(np.isfinite(shift)):
+                if shift.shape != (len(piece.t), 2) or not np.isfinite(shift).all():
                     raise PluginError(compensator.name,
                                       f"returned a correction of shape {shift.shape} for {len(piece.t)} points "
                                       "(or values that are not finite)")
                 total = shift if total is None else total + shift
             if total is not None:
-                size = float(np.max(np.hypot(total[:, 0], total[:, 1])))
+                size = float(np.hypot(total[:, 0], total[:, 1]).max())
                 if size > limit:
                     raise SafetyError(
                         f"a correction of {size:.4f} mm exceeds the maximum correction {limit:g} mm "

@@ -62,8 +62,9 @@ class Piece:
 
 
 def _travel(part: Line | Arc, at: float = 0.5) -> tuple[int, int]:
-    tangent = part.tangent_at(at)
-    return int(np.sign(round(float(tangent[0]), 12))), int(np.sign(round(float(tangent[1]), 12)))
+    """Which way each axis runs at ``at`` (+1, -1, or 0 when it stands still)."""
+    x, z = (round(value, 12) for value in part.direction_at(at))
+    return (x > 0) - (x < 0), (z > 0) - (z < 0)
 
 
 def pieces(move: Move, last: tuple[int, int] = (0, 0)) -> list[Piece]:
@@ -251,9 +252,9 @@ class Rewriter:
         for piece, shift in zip(parts, shifts):
             if shift is None:
                 shift = np.zeros((len(piece.t), 2))
-            self.largest = max(self.largest, float(np.max(np.hypot(shift[:, 0], shift[:, 1]))))
+            self.largest = max(self.largest, float(np.hypot(shift[:, 0], shift[:, 1]).max()))
             targets.append(Target(piece.segment, piece.t, shift))
-        if all(not np.any(target.d) for target in targets):
+        if all(not target.d.any() for target in targets):
             return None
         return Edit(move, _merge_continuous(targets, self._tolerance(step) / 10.0))
 

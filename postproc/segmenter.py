@@ -184,7 +184,7 @@ class Frame:
 def _deviation(frame: Frame, target_u: np.ndarray, target_v: np.ndarray, path: np.ndarray) -> float:
     """Largest distance across the frame between a target and a path, both graphs in u."""
     pu, pv = frame.uv(path)
-    if np.any(np.diff(pu) < -1e-9) or np.any(np.diff(target_u) < -1e-9):
+    if (np.diff(pu) < -1e-9).any() or (np.diff(target_u) < -1e-9).any():
         return math.inf  # not a graph over the nominal: this path does not follow the target
     low = max(target_u[0], pu[0])
     high = min(target_u[-1], pu[-1])
@@ -390,7 +390,7 @@ class Segmenter:
             rel = points - centre
             dist = np.hypot(rel[:, 0], rel[:, 1])
             radius = math.dist(a, centre)
-            if radius == 0 or np.any(dist == 0):
+            if radius == 0 or (dist == 0).any():
                 return None
             residual = dist - radius
             # d(dist)/d(lam) = -(rel . normal)/dist ; d(radius)/d(lam) = -((a - centre) . normal)/radius
@@ -444,7 +444,7 @@ class Segmenter:
         if not isinstance(nominal, Arc):
             return False
         sagitta = min(nominal.r, nominal.end_radius) * (1.0 - math.cos(min(abs(nominal.sweep), math.pi) / 2.0))
-        shift = float(np.max(np.hypot(self.target.d[:, 0], self.target.d[:, 1])))
+        shift = float(np.hypot(self.target.d[:, 0], self.target.d[:, 1]).max())
         return sagitta > self.tol + 2.0 * shift + 2.0 * self.grid.rounding_error
 
     def single_arc(self) -> Plan | None:
@@ -587,7 +587,7 @@ def _straight(target: Target, limits: Limits) -> Plan | None:
         return None
     d = target.d
     linear = d[0] + target.t[:, None] * (d[-1] - d[0])
-    if float(np.max(np.abs(d - linear))) > 1e-12:
+    if float(np.abs(d - linear).max()) > 1e-12:
         return None
     start, end = target.points[0], target.points[-1]
     a, b = limits.grid.snap(*start), limits.grid.snap(*end)
