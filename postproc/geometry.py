@@ -51,7 +51,7 @@ class Line:
 
     def point_at(self, t) -> np.ndarray:
         t = np.asarray(t, dtype=float)[..., None]
-        return np.array(self.start) + t * (np.array(self.end) - np.array(self.start))
+        return np.array((self.x0, self.z0)) + t * np.array((self.x1 - self.x0, self.z1 - self.z0))
 
     def tangent_at(self, t) -> np.ndarray:
         t = np.asarray(t, dtype=float)

@@ -459,22 +459,20 @@ class Interpreter:
         result as :meth:`_ordinary`, without walking its words. None to take the general
         path; with ``keep`` False, the number of moves instead of the step, and ``block``
         may be the reader's light tuple."""
-        label = fields[0]
-        if label is not None and self._is_jump_target(int(label)):
+        label, g, x, z, i, k, r, f = fields
+        if label is not None and self._jumps is not False and self._is_jump_target(int(label)):
             self._forget("a jump may arrive here")
-        _, g, x, z, i, k, r, f = fields
         modal = self.modal
         motion = modal.motion if g is None else _FAST_MOTION[g]
         if motion not in _FAST_MODES:
             return None
         inch = modal.inch
         feed = modal.feed if f is None else (float(f) * INCH if inch else float(f))
-        circle = i is not None or k is not None or r is not None
         if x is None and z is None:
-            if circle:
+            if i is not None or k is not None or r is not None:
                 return None
         elif motion == 10:
-            if feed is None or feed == 0.0 or circle:
+            if feed is None or feed == 0.0 or i is not None or k is not None or r is not None:
                 return None
         elif motion != 0 and (modal.plane != 18 or self.x is None or self.z is None):
             return None

@@ -23,9 +23,7 @@ def read_blocks(lines: Iterable[str], file: str, reporter: Reporter | None = Non
     seldom needs the block, such as the interpreter's tally.
     """
     started = ended = False
-    line = 0
-    for raw in lines:
-        line += 1
+    for line, raw in enumerate(lines, 1):
         text = raw.rstrip("\r\n")  # one ending per line: LF, CRLF or a lone CR
         eol = raw[len(text):]
         if ended:

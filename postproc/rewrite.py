@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Callable, Iterable, Iterator
 
 import numpy as np
@@ -56,8 +57,9 @@ class Piece:
     x_direction: int
     z_direction: int
 
-    @property
+    @cached_property
     def points(self) -> np.ndarray:
+        """The nominal points at ``t``: sampled once, for every compensator and the target."""
         return self.segment.point_at(self.t)
 
 
@@ -253,7 +255,7 @@ class Rewriter:
             if shift is None:
                 shift = np.zeros((len(piece.t), 2))
             self.largest = max(self.largest, float(np.hypot(shift[:, 0], shift[:, 1]).max()))
-            targets.append(Target(piece.segment, piece.t, shift))
+            targets.append(Target.along(piece.segment, piece.t, shift, piece.points))
         if all(not target.d.any() for target in targets):
             return None
         return Edit(move, _merge_continuous(targets, self._tolerance(step) / 10.0))

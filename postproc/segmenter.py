@@ -44,6 +44,13 @@ class Target:
     t: np.ndarray
     d: np.ndarray  #: (n, 2) displacement in radius mm
 
+    @classmethod
+    def along(cls, nominal: Segment, t: np.ndarray, d: np.ndarray, nominal_points: np.ndarray) -> "Target":
+        """A target whose nominal points at ``t`` the caller has already sampled."""
+        target = cls(nominal, t, d)
+        target.__dict__["points"] = nominal_points + d  # what the cached property would compute
+        return target
+
     def at(self, t) -> np.ndarray:
         t = np.atleast_1d(np.asarray(t, dtype=float))
         shift = np.column_stack([np.interp(t, self.t, self.d[:, 0]), np.interp(t, self.t, self.d[:, 1])])
@@ -384,17 +391,24 @@ class Segmenter:
 
     @staticmethod
     def _refine(points, mid, normal, a, lam, iterations: int = 12):
-        """Gauss-Newton on the centre's place along the chord's bisector (least squares)."""
+        """Gauss-Newton on the centre's place along the chord's bisector (least squares).
+
+        With the centre at ``mid + lam * normal`` (``normal`` a unit vector across the chord
+        from ``a`` to its mirror end), the radius is ``hypot(half, lam)`` and each sample's
+        offset along the normal is ``q - lam``: only the distances are arrays."""
+        rel = points - mid
+        rel_x, rel_z = rel[:, 0], rel[:, 1]
+        q = rel @ normal
+        nx, nz = float(normal[0]), float(normal[1])
+        half = math.dist(a, mid)
         for _ in range(iterations):
-            centre = mid + lam * normal
-            rel = points - centre
-            dist = np.hypot(rel[:, 0], rel[:, 1])
-            radius = math.dist(a, centre)
+            dist = np.hypot(rel_x - lam * nx, rel_z - lam * nz)
+            radius = math.hypot(half, lam)
             if radius == 0 or (dist == 0).any():
                 return None
             residual = dist - radius
-            # d(dist)/d(lam) = -(rel . normal)/dist ; d(radius)/d(lam) = -((a - centre) . normal)/radius
-            jac = -(rel @ normal) / dist + ((np.array(a) - centre) @ normal) / radius
+            # d(dist)/d(lam) = -(q - lam)/dist ; d(radius)/d(lam) = lam/radius
+            jac = (lam - q) / dist - lam / radius
             denominator = float(jac @ jac)
             if denominator == 0:
                 return lam
