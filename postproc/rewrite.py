@@ -317,8 +317,9 @@ class Rewriter:
             and step.block.delete is None
             and not self._has_corner(step.block)
             and step.block.statement is None
-            and not any(letter == "G" and _group(value, self.settings.system) in (G.ONE_SHOT, None)
-                        for letter, value in step.block.codes)
+            and (step.block.fields is not None  # canonical: no G code but G00-G03
+                 or not any(letter == "G" and _group(value, self.settings.system) in (G.ONE_SHOT, None)
+                            for letter, value in step.block.codes))
         )
 
     def _end_would_move(self, entry: Entry, start, nominal) -> bool:
@@ -348,7 +349,7 @@ class Rewriter:
 
     @staticmethod
     def _has_corner(block: Block) -> bool:
-        return any(letter in (",C", ",R") for letter, _ in block.codes)
+        return block.fields is None and any(letter in (",C", ",R") for letter, _ in block.codes)
 
     def _explicit(self, entry: Entry) -> None:
         """Write a corner block's geometry out, so the control no longer computes the corner."""
@@ -408,13 +409,18 @@ class Rewriter:
         before = self.original_mode
         self.original_mode = step.modal.motion
         if not entry.edited and entry.retarget is None:
-            codes = [value for letter, value in block.codes if letter == "G"]
-            sets_mode = any(_group(value, self.settings.system) == G.MOTION for value in codes)
-            relies = (
-                any(letter in "XZUWIK" for letter, _ in block.codes)
-                and not sets_mode
-                and not any(_group(value, self.settings.system) == G.ONE_SHOT for value in codes)
-            )
+            fields = block.fields
+            if fields is not None:  # a canonical block: G00-G03 at most, read from its fields
+                sets_mode = fields[1] is not None
+                relies = not sets_mode and any(value is not None for value in fields[2:6])  # X Z I K
+            else:
+                codes = [value for letter, value in block.codes if letter == "G"]
+                sets_mode = any(_group(value, self.settings.system) == G.MOTION for value in codes)
+                relies = (
+                    any(letter in "XZUWIK" for letter, _ in block.codes)
+                    and not sets_mode
+                    and not any(_group(value, self.settings.system) == G.ONE_SHOT for value in codes)
+                )
             if relies and self.mode_now is not None and before is not None and self.mode_now != before:
                 writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
                 yield with_motion_code(block, writer.code(before, Style.of(block)))

@@ -345,17 +345,19 @@ class Segmenter:
         if radius > self.limits.max_arc_radius:
             return None, math.inf
         cw = self._direction(a, b, centre, points[len(points) // 2])
-        candidates = []
+        cuts = []
         for cand in self._rounded_centres(a, centre):
             cut = Cut(a[0], a[1], b[0], b[1], cand[0], cand[1], cw)
             if cut.radius_mismatch > self.limits.arc_radius_tolerance:
                 continue
             if abs(cand[0] - a[0]) < 1e-12 and abs(cand[1] - a[1]) < 1e-12:
                 continue
-            candidates.append((self._radial_bound(cut, i, j), len(candidates), cut))
+            cuts.append(cut)
+        bounds = self._radial_bounds(cuts, points) if cuts else []
+        candidates = sorted(zip(bounds, range(len(cuts)), cuts))
         ends = max(math.dist(a, self.target.points[i]), math.dist(b, self.target.points[j]))  # as _measure
         best, best_dev = None, math.inf
-        for bound, _, cut in sorted(candidates):
+        for bound, _, cut in candidates:
             bound = max(bound, ends)
             if bound >= best_dev:
                 break  # no candidate left can beat the best: measuring them is wasted work
@@ -364,19 +366,22 @@ class Segmenter:
                 best, best_dev = cut, deviation
         return best, best_dev
 
-    def _radial_bound(self, cut: Cut, i: int, j: int) -> float:
-        """A lower bound of what :meth:`_measure` gives for an arc cut, without sampling it.
+    def _radial_bounds(self, cuts: list[Cut], points: np.ndarray) -> list[float]:
+        """For each arc cut, a lower bound of what :meth:`_measure` gives, without sampling it.
 
         A target sample's distance to the cut's circle (to the ring between its two radii,
         for a cut whose ends sit at slightly different radii) is never more than the
         deviation measured across the frame, less the small error of reading the sampled
-        path linearly (a hundredth of the tolerance, see ``spacing``: the slack is five)."""
-        r0, r1, _ = cut._spiral()
-        points = self.target.points[i : j + 1]
-        distance = np.hypot(points[:, 0] - cut.xc, points[:, 1] - cut.zc)
-        outside = np.maximum(np.maximum(distance - max(r0, r1), min(r0, r1) - distance), 0.0)
-        inner = outside[1:-1] if len(outside) > 2 else outside[:0]  # the ends may lie beyond the cut's span
-        return (float(inner.max()) if len(inner) else 0.0) - 0.05 * self.tol
+        path linearly (a hundredth of the tolerance, see ``spacing``: the slack is five).
+        The ends are left out: they may lie beyond the cut's span. All cuts at once."""
+        if len(points) <= 2:
+            return [-0.05 * self.tol] * len(cuts)
+        inner = points[1:-1]
+        centres = np.array([(cut.xc, cut.zc) for cut in cuts])
+        rings = np.array([sorted(cut._spiral()[:2]) for cut in cuts])
+        distance = np.hypot(inner[None, :, 0] - centres[:, None, 0], inner[None, :, 1] - centres[:, None, 1])
+        outside = np.maximum(np.maximum(distance - rings[:, 1:2], rings[:, 0:1] - distance), 0.0)
+        return (outside.max(axis=1) - 0.05 * self.tol).tolist()
 
     def _centre_guess(self, points: np.ndarray, i: int, j: int):
         if isinstance(self.frame.nominal, Arc) and j - i >= 0.5 * self.last:
