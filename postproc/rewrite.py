@@ -59,8 +59,11 @@ class Piece:
 
     @cached_property
     def points(self) -> np.ndarray:
-        """The nominal points at ``t``: sampled once, for every compensator and the target."""
-        return self.segment.point_at(self.t)
+        """The nominal points at ``t``: sampled once, for every compensator and the target,
+        so read-only."""
+        points = self.segment.point_at(self.t)
+        points.setflags(write=False)
+        return points
 
 
 def _travel(part: Line | Arc, at: float = 0.5) -> tuple[int, int]:

@@ -94,10 +94,20 @@ class _Nonsense(_Raises):
         return np.zeros((3, 3))
 
 
+class _Mutates(_Raises):
+    """Changes the shared sample points in place."""
+
+    name = "test-mutates"
+
+    def correct(self, piece):
+        piece.points[:, 0] += 0.001
+        return np.zeros((len(piece.t), 2))
+
+
 class _Test:
     @hookspecs.hookimpl
     def postproc_compensators(self):
-        return [_Raises, _Nonsense]
+        return [_Raises, _Nonsense, _Mutates]
 
 
 @pytest.fixture
@@ -110,7 +120,8 @@ def faulty():
 
 
 @pytest.mark.parametrize("name, words", [("test-raises", "correct failed: ZeroDivisionError: oops"),
-                                         ("test-nonsense", "returned a correction of shape (3, 3)")])
+                                         ("test-nonsense", "returned a correction of shape (3, 3)"),
+                                         ("test-mutates", "correct failed: ValueError: output array is read-only")])
 def test_a_faulty_plugin_is_named_and_nothing_is_written(run, faulty, tmp_path, name, words):
     target = tmp_path / "out.nc"
     result = run("compensate", HEMISHELL, "--plugin", name, "-o", str(target))
