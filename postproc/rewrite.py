@@ -22,6 +22,7 @@ text back through the interpreter and measuring the result against the target
 from __future__ import annotations
 
 import math
+import operator
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Callable, Iterable, Iterator
@@ -582,7 +583,7 @@ class Rewriter:
         if cuts is None:  # written as it was: from wherever the previous block left the tool
             cuts = list(nominal)
             if cuts and contour[1] and not cuts[0].is_arc:
-                cuts[0] = replace(cuts[0], x0=contour[1][-1].x1, z0=contour[1][-1].z1)
+                cuts[0] = cuts[0]._replace(x0=contour[1][-1].x1, z0=contour[1][-1].z1)
         contour[1].extend(cuts)
         if step.contour_end:
             self._contour = None
@@ -627,7 +628,7 @@ class Rewriter:
             raise SafetyError(f"self-check: {len(cuts)} moves planned, {len(moves)} read back", where)
         for planned, move in zip(cuts, moves):
             got = _cut_of(move)
-            if max(abs(a - b) for a, b in zip(_numbers(planned), _numbers(got))) > 1e-9:
+            if max(map(abs, map(operator.sub, _numbers(planned), _numbers(got)))) > 1e-9:
                 raise SafetyError(f"self-check: a block reads back as {got}, planned {planned}", where)
         tolerance = self._tolerance(step)
         for edit in entry.edits:

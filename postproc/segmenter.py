@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
+from typing import NamedTuple
 
 import numpy as np
 
@@ -86,10 +87,14 @@ def unit_steps(n: int) -> np.ndarray:
     return steps
 
 
-@dataclass(frozen=True, slots=True)
-class Cut:
+class Cut(NamedTuple):
     """One block as the control will run it: end points on the grid, arcs about the
-    centre that the rounded start point and rounded I, K define."""
+    centre that the rounded start point and rounded I, K define.
+
+    Immutable; a named tuple rather than a frozen dataclass (like :class:`Move`): the
+    segmenter weighs several candidate cuts for every move, and a tuple is built several
+    times faster. Change one with ``cut._replace(...)``.
+    """
 
     x0: float
     z0: float
