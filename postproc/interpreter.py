@@ -832,9 +832,8 @@ class Interpreter:
 
     def _move(self, kind: str, block: Block, x1, z1, xc=None, zc=None, cw=None, exact: bool = True) -> Move:
         modal = self.modal
-        return _new_move(Move, (kind, block.line, self.x, self.z, x1, z1, xc, zc, cw,
-                                CONTOUR if self._capture is not None else RUN, modal.feed, modal.per_rev, modal.comp,
-                                modal.tool, exact, modal.offset))
+        return _new_move(Move, (kind, block.line, self.x, self.z, x1, z1, xc, zc, cw, self._role(), modal.feed,
+                                modal.per_rev, modal.comp, modal.tool, exact, modal.offset))
 
     # ------------------------------------------------------------------ motion
 
@@ -942,8 +941,6 @@ class Interpreter:
 
     def _note_corner(self, step: Step, block: Block, values: dict) -> None:
         """Remember a ,C or ,R word: the corner is cut when the next move is known."""
-        if ",C" not in values and ",R" not in values:
-            return
         for kind in (",C", ",R"):
             if kind in values:
                 self._fresh_corner = (len(step.moves) - 1, kind, values[kind])

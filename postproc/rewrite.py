@@ -69,8 +69,8 @@ class Piece:
 
 def _travel(part: Line | Arc, at: float = 0.5) -> tuple[int, int]:
     """Which way each axis runs at ``at`` (+1, -1, or 0 when it stands still)."""
-    x, z = (round(value, 12) for value in part.direction_at(at))
-    return (x > 0) - (x < 0), (z > 0) - (z < 0)
+    x, z = part.direction_at(at)
+    return _sign(round(x, 12)), _sign(round(z, 12))
 
 
 def pieces(move: Move, last: tuple[int, int] = (0, 0)) -> list[Piece]:
