@@ -6,7 +6,7 @@ test square, the extrapolation rule, and predicting the traces back from the mod
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -40,7 +40,8 @@ class ErrorFunctions(Compensator):
 
     Subclasses fit ``errors(u, w, x_direction, z_direction) -> (e_x, e_z)``: the error at
     offsets (u, w) = (x - xc, z - zc) from the test centre with each axis travelling the
-    given way (+1, -1, or 0 for not known). The correction is minus the error.
+    given way (+1, -1, or 0 for not known), all arrays of one value per point. The correction
+    is minus the error.
     """
 
     takes = ("ballbar",)
@@ -64,23 +65,35 @@ class ErrorFunctions(Compensator):
         return ccw, cw
 
     def correct(self, piece: Piece) -> np.ndarray | None:
-        points = piece.points
+        return self.correct_many([piece])[0]
+
+    def correct_many(self, pieces: Sequence[Piece]) -> list[np.ndarray | None]:
+        """All the pieces' points in one array: the error functions depend on each point and
+        its piece's directions alone."""
+        counts = [len(piece.t) for piece in pieces]
+        ends = np.cumsum(counts)
+        points = np.concatenate([piece.points for piece in pieces]) if len(pieces) > 1 else pieces[0].points
         u, w = points[:, 0] - self.centre[0], points[:, 1] - self.centre[1]
         if not self.settings["extrapolate"]:
             held_u, held_w = np.clip(u, -self.radius, self.radius), np.clip(w, -self.radius, self.radius)
-            if not self._warned and max(np.max(np.abs(held_u - u)), np.max(np.abs(held_w - w))) > 1e-9:
-                self._warned = True
-                (x0, x1), (z0, z1) = self.square()
-                self.context.reporter.warn(
-                    f"{self.name}: the move on line {piece.move.line} leaves the square the test circle spans "
-                    f"(x {x0:g} .. {x1:g}, z {z0:g} .. {z1:g} mm); its error functions are held at the square's edge "
-                    "there (--option extrapolate=true extrapolates them)")
+            if not self._warned:
+                outside = np.flatnonzero(np.maximum(np.abs(held_u - u), np.abs(held_w - w)) > 1e-9)
+                if len(outside):
+                    self._warned = True
+                    first = pieces[int(np.searchsorted(ends, outside[0], side="right"))]
+                    (x0, x1), (z0, z1) = self.square()
+                    self.context.reporter.warn(
+                        f"{self.name}: the move on line {first.move.line} leaves the square the test circle spans "
+                        f"(x {x0:g} .. {x1:g}, z {z0:g} .. {z1:g} mm); its error functions are held at the square's "
+                        "edge there (--option extrapolate=true extrapolates them)")
             u, w = held_u, held_w
-        e_x, e_z = self.errors(u, w, piece.x_direction, piece.z_direction)
+        x_direction = np.repeat(np.array([piece.x_direction for piece in pieces], dtype=float), counts)
+        z_direction = np.repeat(np.array([piece.z_direction for piece in pieces], dtype=float), counts)
+        e_x, e_z = self.errors(u, w, x_direction, z_direction)
         shift = np.empty((len(u), 2))  # each column broadcast to the samples, negated
         np.negative(e_x, out=shift[:, 0])
         np.negative(e_z, out=shift[:, 1])
-        return shift
+        return [shift[end - count : end] for end, count in zip(ends.tolist(), counts)]
 
     def square(self) -> tuple[tuple[float, float], tuple[float, float]]:
         """The square the test circle spans: where the error functions are measured."""

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Iterable
+from typing import Any, ClassVar, Iterable, Sequence
 
 import numpy as np
 
@@ -108,6 +108,13 @@ class Compensator:
     def correct(self, piece: Piece) -> np.ndarray | None:
         """The displacement wanted at ``piece.points``: (n, 2) radius mm, or None."""
         raise NotImplementedError
+
+    def correct_many(self, pieces: Sequence[Piece]) -> list[np.ndarray | None]:
+        """The displacements of several pieces, in order: what the core calls, with the pieces
+        of a run of moves at once. By default :meth:`correct` for each. A compensator whose
+        correction depends on each point alone overrides it to work on all the points in one
+        array pass: on a program of short moves, calling numpy per piece is most of its cost."""
+        return [self.correct(piece) for piece in pieces]
 
     def prologue(self) -> list[str]:
         """Blocks (text, no line ending) to write at the start of the program, after the

@@ -157,10 +157,11 @@ class Pipeline:
             x_limits=self.profile.x_limits,
             z_limits=self.profile.z_limits,
             default_tolerance=self.profile.default_tolerance,
+            max_correction=self.max_correction,
         )
         steps = interpret_source(source, self.profile, self.reporter)
         region = Region(self.request.regions)
-        rewriter = Rewriter(steps, self._corrector(source), settings, self.reporter, source.name, selects=region)
+        rewriter = Rewriter(steps, self._corrector(), settings, self.reporter, source.name, selects=region)
         lead: list[str] = []  # the tape mark and program number go before the provenance block
         with tempfile.SpooledTemporaryFile(max_size=1 << 20) as body:
             for text in rewriter.run():
@@ -205,29 +206,19 @@ class Pipeline:
             if number > 50:
                 return
 
-    def _corrector(self, source: Source):
+    def _corrector(self):
+        """The corrections of every compensator for a run of pieces, checked and added."""
         compensators = self.compensators
-        limit = self.max_correction
 
-        def correct(piece: Piece):
-            total = None
+        def correct(pieces: list[Piece]) -> list[np.ndarray | None]:
+            totals: list[np.ndarray | None] = [None] * len(pieces)
             for compensator in compensators:
-                shift = self._guarded(compensator, "correct", compensator.correct, piece)
-                if shift is None:
-                    continue
-                shift = np.asarray(shift, dtype=float)
-                if shift.shape != (len(piece.t), 2) or not np.isfinite(shift).all():
-                    raise PluginError(compensator.name,
-                                      f"returned a correction of shape {shift.shape} for {len(piece.t)} points "
-                                      "(or values that are not finite)")
-                total = shift if total is None else total + shift
-            if total is not None:
-                size = float(np.hypot(total[:, 0], total[:, 1]).max())
-                if size > limit:
-                    raise SafetyError(
-                        f"a correction of {size:.4f} mm exceeds the maximum correction {limit:g} mm "
-                        "(--max-correction)", Location(source.name, piece.move.line))
-            return total
+                shifts = self._guarded(compensator, "correct", compensator.correct_many, pieces)
+                for index, shift in enumerate(_checked(compensator.name, shifts, pieces)):
+                    if shift is not None:
+                        total = totals[index]
+                        totals[index] = shift if total is None else total + shift
+            return totals
 
         return correct
 
@@ -278,6 +269,24 @@ class _time_limit:
     @staticmethod
     def _expire(signum, frame):
         raise _Overtime()
+
+
+def _checked(name: str, shifts, pieces: list[Piece]) -> list[np.ndarray | None]:
+    """A compensator's corrections, one (n, 2) array of finite values (or None) per piece."""
+    if not isinstance(shifts, (list, tuple)) or len(shifts) != len(pieces):
+        count = len(shifts) if isinstance(shifts, (list, tuple)) else type(shifts).__name__
+        raise PluginError(name, f"returned {count} corrections for {len(pieces)} pieces")
+    checked = []
+    for shift, piece in zip(shifts, pieces):
+        if shift is not None:
+            shift = np.asarray(shift, dtype=float)
+            if shift.shape != (len(piece.t), 2):
+                raise PluginError(name, f"returned a correction of shape {shift.shape} for {len(piece.t)} points")
+        checked.append(shift)
+    given = [shift for shift in checked if shift is not None]
+    if given and not np.isfinite(np.concatenate(given)).all():
+        raise PluginError(name, "returned a correction with values that are not finite")
+    return checked
 
 
 def _safe(text: str) -> str:

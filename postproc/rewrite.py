@@ -1,8 +1,9 @@
 """Applying corrections: targets through the segmenter into blocks, joined to the rest.
 
-The rewriter streams the interpreted steps with a window of one motion step and the
-non-motion steps after it. When the next motion step arrives, the join between the two is
-settled, then the window is written out:
+The rewriter streams the interpreted steps in batches (a bounded look-ahead): the pieces of
+a batch's moves are corrected in one call, then the steps go through a window of one motion
+step and the non-motion steps after it. When the next motion step arrives, the join between
+the two is settled, then the window is written out:
 
 - a move whose start moved (its correction is not zero there) gets the previous move's
   end point moved to meet it when that move is a plain line or rapid (as the source's
@@ -41,6 +42,7 @@ from .resolution import Grid
 from .segmenter import Cut, Limits, Plan, PlanError, Segmenter, Target, plan, sample_params
 
 JOIN = 1e-9  #: nominal points closer than this are the same point
+BATCH = 256  #: steps read ahead so that their pieces are corrected in one call
 
 
 @dataclass(frozen=True)
@@ -127,7 +129,8 @@ def _sign(value: float) -> int:
     return (value > 0.0) - (value < 0.0)
 
 
-Corrector = Callable[[Piece], "np.ndarray | None"]
+#: The corrections wanted for a run of pieces, in order: an (n, 2) array or None for each.
+Corrector = Callable[[list[Piece]], "list[np.ndarray | None]"]
 
 
 @dataclass
@@ -181,6 +184,7 @@ class Settings:
     z_limits: tuple[float, float] | None = None
     nose_radius: float = 0.4
     default_tolerance: Callable[[bool], float] = lambda inch: 0.001
+    max_correction: float = math.inf  #: mm; a larger correction is refused
 
 
 class Rewriter:
@@ -209,28 +213,34 @@ class Rewriter:
     def run(self) -> Iterator[str]:
         window: list[Entry] = []
         previous: Entry | None = None
-        first = True
-        for step in self.steps:
-            if first:
-                self.mode_now = self.original_mode = None
-                first = False
-            entry = Entry(step)
-            if entry.motion:
-                entry.edits = []
-                for move in step.moves:
-                    entry.edits.append(self._edit(step, move))
-                    if move.role in (RUN, CONTOUR, CORNER):
-                        self._last_travel = travel_after(move, self._last_travel)
-                if previous is not None:
-                    self._join(previous, entry)
-                yield from self._flush(window)
-                window = [entry]
-                previous = entry
-            else:
-                window.append(entry)
+        self.mode_now = self.original_mode = None
+        for batch in self._corrected(self.steps):
+            for entry in batch:
+                if entry.motion:
+                    if previous is not None:
+                        self._join(previous, entry)
+                    yield from self._flush(window)
+                    window = [entry]
+                    previous = entry
+                else:
+                    window.append(entry)
         if previous is not None:
             self._join(previous, None)
         yield from self._flush(window)
+
+    def _corrected(self, steps: Iterable[Step]) -> Iterator[list[Entry]]:
+        """The steps in batches of at most BATCH, each motion step with its edits: the pieces
+        of a whole batch go to the corrector in one call (a bounded look-ahead)."""
+        batch: list[Entry] = []
+        for step in steps:
+            batch.append(Entry(step))
+            if len(batch) == BATCH:
+                self._correct(batch)
+                yield batch
+                batch = []
+        if batch:
+            self._correct(batch)
+            yield batch
 
     # ------------------------------------------------------------------ corrections
 
@@ -247,22 +257,50 @@ class Rewriter:
             and self.selects(step, move)
         )
 
-    def _edit(self, step: Step, move: Move) -> Edit | None:
-        if not self._candidate(step, move):
-            return None
-        parts = pieces(move, self._last_travel)
-        shifts = [self.corrector(piece) for piece in parts]
-        if all(shift is None for shift in shifts):
-            return None
-        targets = []
-        for piece, shift in zip(parts, shifts):
-            if shift is None:
-                shift = np.zeros((len(piece.t), 2))
-            self.largest = max(self.largest, float(np.hypot(shift[:, 0], shift[:, 1]).max()))
-            targets.append(Target.along(piece.segment, piece.t, shift, piece.points))
-        if all(not target.d.any() for target in targets):
-            return None
-        return Edit(move, _merge_continuous(targets, self._tolerance(step) / 10.0))
+    def _correct(self, batch: list[Entry]) -> None:
+        """Give each motion step of the batch its edits (None for a move left as it is)."""
+        wanted: list[tuple[Entry, int, list[Piece]]] = []
+        for entry in batch:
+            if not entry.motion:
+                continue
+            step = entry.step
+            entry.edits = [None] * len(step.moves)
+            for index, move in enumerate(step.moves):
+                if self._candidate(step, move):
+                    wanted.append((entry, index, pieces(move, self._last_travel)))
+                if move.role in (RUN, CONTOUR, CORNER):
+                    self._last_travel = travel_after(move, self._last_travel)
+        if not wanted:
+            return
+        every = [piece for _, _, parts in wanted for piece in parts]
+        shifts = self.corrector(every)
+        given = [shift for shift in shifts if shift is not None]
+        if given:  # the largest correction of each corrected piece, in one pass
+            starts = np.cumsum([0] + [len(shift) for shift in given[:-1]])
+            joined = np.concatenate(given) if len(given) > 1 else given[0]
+            sizes = iter(np.maximum.reduceat(np.hypot(joined[:, 0], joined[:, 1]), starts).tolist())
+        first = 0
+        for entry, index, parts in wanted:
+            mine = shifts[first : first + len(parts)]
+            first += len(parts)
+            if all(shift is None for shift in mine):
+                continue
+            targets, moved = [], False
+            for piece, shift in zip(parts, mine):
+                if shift is None:
+                    shift = np.zeros((len(piece.t), 2))
+                else:
+                    size = next(sizes)
+                    if size > self.settings.max_correction:
+                        raise SafetyError(f"a correction of {size:.4f} mm exceeds the maximum correction "
+                                          f"{self.settings.max_correction:g} mm (--max-correction)",
+                                          Location(self.file, piece.move.line))
+                    self.largest = max(self.largest, size)
+                    moved = moved or size > 0.0
+                targets.append(Target.along(piece.segment, piece.t, shift, piece.points))
+            if moved:
+                edit = Edit(parts[0].move, _merge_continuous(targets, self._tolerance(entry.step) / 10.0))
+                entry.edits[index] = edit
 
     # ------------------------------------------------------------------ joins
 

@@ -239,6 +239,24 @@ def test_the_correction_is_minus_the_error_with_backlash_by_direction_and_none_w
     assert piece.x_direction == 0 and np.allclose(compensator.correct(piece)[:, 0], 0.0, atol=1e-9)
 
 
+@pytest.mark.parametrize("plugin", sorted(PLUGINS))
+def test_a_run_of_pieces_is_corrected_piece_by_piece(plugin):
+    """correct_many works on all the points at once; each piece must get what its own points
+    and its own directions give (an arc that reverses X, a Z-only line after it)."""
+    compensator = fitted(PLUGINS[plugin], CCW, CW)
+    parts, last = [], (0, 0)
+    for move in (Move(LINE, 5, 10.0, 30.0, 40.0, 20.0, feed=0.1),
+                 Move(ARC, 6, 40.0, 20.0, 40.0, -20.0, xc=40.0, zc=0.0, cw=False, feed=0.1),
+                 Move(LINE, 7, 40.0, -20.0, 40.0, -60.0, feed=0.1)):
+        parts += pieces(move, last)
+        last = (parts[-1].x_direction, parts[-1].z_direction)
+    assert {piece.x_direction for piece in parts} == {1, -1}
+    for piece, shift in zip(parts, compensator.correct_many(parts)):
+        u, w = piece.points[:, 0] - compensator.centre[0], piece.points[:, 1] - compensator.centre[1]
+        e_x, e_z = compensator.errors(u, w, piece.x_direction, piece.z_direction)
+        assert np.array_equal(shift, -np.column_stack([np.broadcast_to(e_x, u.shape), np.broadcast_to(e_z, u.shape)]))
+
+
 def test_effective_angle_keeps_the_direction_of_travel_and_reads_uniform_scaling_exactly(tmp_path):
     compensator = fitted(EffectiveAngle, *synthetic(tmp_path, lambda u, w, dx, dz: (-0.003 * dx, -0.002 * dz)))
     for axis, half in (("x", 0.003), ("z", 0.002)):

@@ -104,10 +104,30 @@ class _Mutates(_Raises):
         return np.zeros((len(piece.t), 2))
 
 
+class _Miscounts(_Raises):
+    """Returns fewer corrections than it was given pieces."""
+
+    name = "test-miscounts"
+
+    def correct_many(self, pieces):
+        return [None] * (len(pieces) - 1)
+
+
+class _Infinite(_Raises):
+    """Returns a correction that is not finite."""
+
+    name = "test-infinite"
+
+    def correct(self, piece):
+        shift = np.zeros((len(piece.t), 2))
+        shift[-1, 1] = np.inf
+        return shift
+
+
 class _Test:
     @hookspecs.hookimpl
     def postproc_compensators(self):
-        return [_Raises, _Nonsense, _Mutates]
+        return [_Raises, _Nonsense, _Mutates, _Miscounts, _Infinite]
 
 
 @pytest.fixture
@@ -121,7 +141,9 @@ def faulty():
 
 @pytest.mark.parametrize("name, words", [("test-raises", "correct failed: ZeroDivisionError: oops"),
                                          ("test-nonsense", "returned a correction of shape (3, 3)"),
-                                         ("test-mutates", "correct failed: ValueError: output array is read-only")])
+                                         ("test-mutates", "correct failed: ValueError: output array is read-only"),
+                                         ("test-miscounts", "returned 2 corrections for 3 pieces"),
+                                         ("test-infinite", "returned a correction with values that are not finite")])
 def test_a_faulty_plugin_is_named_and_nothing_is_written(run, faulty, tmp_path, name, words):
     target = tmp_path / "out.nc"
     result = run("compensate", HEMISHELL, "--plugin", name, "-o", str(target))

@@ -14,6 +14,7 @@ from interpret import moves
 from postproc.diagnostics import Reporter, SafetyError
 from postproc.geometry import Arc
 from postproc.program import interpret_source
+from postproc import rewrite as rewrite_module
 from postproc.rewrite import Rewriter, Settings
 from postproc.segmenter import chord_minimum
 from postproc.source import Source
@@ -33,9 +34,14 @@ def radial(deviation_mm, lines=None):
     return correct
 
 
+def each(correct):
+    """A per-piece corrector as the rewriter calls it: with a run of pieces at once."""
+    return lambda pieces: [correct(piece) for piece in pieces]
+
+
 def rewrite(text: str, correct, **options) -> tuple[str, Rewriter]:
     with Source.from_text(text, "t.nc") as source:
-        rewriter = Rewriter(interpret_source(source), correct, Settings(**options), Reporter(), "t.nc")
+        rewriter = Rewriter(interpret_source(source), each(correct), Settings(**options), Reporter(), "t.nc")
         return "".join(rewriter.run()), rewriter
 
 
@@ -120,7 +126,7 @@ def test_no_block_is_shorter_than_the_look_ahead_digests(feed):
     shortest = feed * 0.01 / 60.0
     try:
         with Source.from_text(text, "t.nc") as source:
-            rewriter = Rewriter(interpret_source(source), radial(0.0005), Settings(mode="line", tolerance=0.001,
+            rewriter = Rewriter(interpret_source(source), each(radial(0.0005)), Settings(mode="line", tolerance=0.001,
                                 min_block_time_s=0.01), reporter, "t.nc")
             out = "".join(rewriter.run())
     except SafetyError as exc:
@@ -212,7 +218,7 @@ def test_no_block_under_cutter_compensation_turns_back_under_the_nose_radius():
     may be shorter than what its corners take away (the interference check would alarm)."""
     text = "G18 G21 G99 F0.1 S500\nG00 X0. Z6.\nG42 G01 Z5.\nG02 X10. Z0. R5.\nG40 G00 X20.\n"
     with Source.from_text(text, "t.nc") as source:
-        rewriter = Rewriter(interpret_source(source), radial(0.002), Settings(mode="line", tolerance=0.002,
+        rewriter = Rewriter(interpret_source(source), each(radial(0.002)), Settings(mode="line", tolerance=0.002,
                             min_block_time_s=0.0, nose_radius=0.8), Reporter(), "t.nc")
         out = "".join(rewriter.run())
     chords = [m for m in moves(out) if m.line >= 4 and m.kind == "line"][:-1]
@@ -222,7 +228,7 @@ def test_no_block_under_cutter_compensation_turns_back_under_the_nose_radius():
         assert math.hypot(block.x1 - block.x0, block.z1 - block.z0) >= 0.8 * sum(math.tan(t / 2) for t in turns)
     with pytest.raises(SafetyError) as info:  # a nose so large the chords cannot be long enough
         with Source.from_text(text, "t.nc") as source:
-            "".join(Rewriter(interpret_source(source), radial(0.002), Settings(mode="line", tolerance=0.001,
+            "".join(Rewriter(interpret_source(source), each(radial(0.002)), Settings(mode="line", tolerance=0.001,
                              min_block_time_s=0.0, nose_radius=20.0), Reporter(), "t.nc").run())
     assert "interference" in info.value.message
 
@@ -230,3 +236,34 @@ def test_no_block_under_cutter_compensation_turns_back_under_the_nose_radius():
 def _direction(move):
     length = math.hypot(move.x1 - move.x0, move.z1 - move.z0)
     return ((move.x1 - move.x0) / length, (move.z1 - move.z0) / length)
+
+
+def test_batches_of_any_size_write_the_same_program(monkeypatch):
+    """Pieces are corrected a batch of steps at a time; where a batch ends must not show in
+    the output, the joins across it included."""
+    blocks = ["G18 G21 G99", "G00 X20. Z2.", "G01 Z0. F0.1"]
+    z = 0.0
+    for index in range(300):
+        x = 20.0 + (index % 7) * 0.5
+        if index % 3 == 2:
+            blocks.append(f"G0{2 + index % 2} X{x + 1.:.3f} Z{z - 1.:.3f} R2.")
+            z -= 1.0
+        elif index % 5 == 0:  # Z alone: X keeps the direction it last travelled in
+            blocks.append(f"G01 Z{z - 0.4:.3f}")
+            z -= 0.4
+        else:
+            blocks.append(f"G01 X{x:.3f} Z{z - 0.4:.3f}")
+            z -= 0.4
+    text = "\n".join(blocks) + "\nG00 X100.\nM30\n"
+    outwards = radial(0.003)
+
+    def backlash(piece):  # each axis lags by 1 um against the way it travels (or last travelled)
+        shift = np.tile([-0.001 * piece.x_direction, -0.001 * piece.z_direction], (len(piece.t), 1))
+        radial_shift = outwards(piece)
+        return shift if radial_shift is None else shift + radial_shift
+
+    whole, rewriter = rewrite(text, backlash, tolerance=0.001)
+    assert rewriter.replaced > 250
+    for size in (1, 2, 7):
+        monkeypatch.setattr(rewrite_module, "BATCH", size)
+        assert rewrite(text, backlash, tolerance=0.001)[0] == whole
