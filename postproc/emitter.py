@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from functools import lru_cache
 
 from . import gcodes as G
 from .blocks import Block
@@ -36,6 +37,8 @@ class Style:
     @classmethod
     def of(cls, block: Block) -> "Style":
         """The style a block is written in."""
+        if block.fields is not None:
+            return cls._of_canonical(block)
         text = block.text
         lower = None
         joined = True  # no gap between any two words
@@ -60,6 +63,21 @@ class Style:
                 leading_zero = leading_zero and not _LEADING_DOT.match(value)
         separator = "" if joined and len(block.words) >= 2 else " "
         return cls(bool(lower), separator, two_digit, trim, leading_zero, block.has_eob)
+
+    @classmethod
+    def _of_canonical(cls, block: Block) -> "Style":
+        """The style of a canonical block, read from its fields: what :meth:`of` finds in its
+        words (upper case; words apart by one space or none; a decimal point in every length,
+        at the end of the value's digits)."""
+        fields = block.fields
+        text = block.text
+        trim = leading_zero = True
+        for value in fields[2:]:
+            if value is not None and "." in value:
+                trim = trim and value[-1] != "0"
+                leading_zero = leading_zero and value.lstrip("+-")[0] != "."
+        joined = " " not in _canonical_words(text, fields) and sum(value is not None for value in fields[1:]) >= 2
+        return _style(joined, fields[1] is None or len(fields[1]) >= 2, trim, leading_zero, text.endswith(";"))
 
     def number(self, value: float, decimals: int) -> str:
         text = f"{value:.{decimals}f}"
@@ -135,6 +153,8 @@ class Writer:
 
     def _first_words(self, block: Block, style: Style, wanted: int, mode, cut: Cut, label_last: bool) -> list[str]:
         """The replaced block's words with its geometry (and motion G code) swapped for the cut's."""
+        if block.fields is not None:
+            return self._first_canonical_words(block, style, wanted, mode, cut, label_last)
         parts: list[str] = []
         if block.label is not None and not label_last:
             parts.append(_label(block))
@@ -161,6 +181,47 @@ class Writer:
             parts += self.geometry_words(cut, style)
         parts += [comment.text for comment in block.comments]
         return parts
+
+
+    def _first_canonical_words(self, block: Block, style: Style, wanted: int, mode, cut: Cut,
+                               label_last: bool) -> list[str]:
+        """:meth:`_first_words` of a canonical block, from its fields: N, a motion G code,
+        the geometry words, F, then the comment."""
+        label, g, *geometry, feed = block.fields
+        parts = [] if label is None or label_last else ["N" + label]
+        code = [self.code(wanted, style)] if g is None and wanted != mode else []
+        if g is not None:
+            parts.append(self.code(wanted, style))
+        if any(value is not None for value in geometry):
+            parts += code + self.geometry_words(cut, style)
+            if feed is not None:
+                parts.append("F" + feed)
+        else:  # nothing to swap: the geometry goes after the other words, as in _first_words
+            if feed is not None:
+                parts.append("F" + feed)
+            parts += code + self.geometry_words(cut, style)
+        text = block.text
+        at = text.find("(")
+        if at != -1:
+            parts.append(text[at : text.index(")", at) + 1])
+        return parts
+
+
+@lru_cache(maxsize=64)
+def _style(joined: bool, two_digit_g: bool, trim: bool, leading_zero: bool, eob: bool) -> Style:
+    """One style object per combination: most programs are written in one or two."""
+    return Style(False, "" if joined else " ", two_digit_g, trim, leading_zero, eob)
+
+
+def _canonical_words(text: str, fields: tuple) -> str:
+    """The words of a canonical line: the text between its label and its comment or ``;``."""
+    start = 0 if fields[0] is None else 1 + len(fields[0])
+    end = len(text)
+    for mark in ("(", ";"):
+        at = text.find(mark, start)
+        if at != -1:
+            end = min(end, at)
+    return text[start:end].strip()
 
 
 def _label(block: Block) -> str:

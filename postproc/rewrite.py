@@ -526,12 +526,11 @@ class Rewriter:
     def _plan(self, step: Step, target: Target) -> Plan:
         settings = self.settings
         limits = Limits(self._tolerance(step), self._grid(step), settings.arc_radius_tolerance, settings.max_arc_radius)
-        where = Location(self.file, step.block.line, None, step.block.text)
         try:
             result = plan(target, limits, settings.mode)
         except PlanError as exc:
-            raise SafetyError(f"block cannot be compensated within tolerance: {exc}", where) from None
-        result = self._keep_long(result, target, limits, self._length_rule(step, result.cuts), where)
+            raise SafetyError(f"block cannot be compensated within tolerance: {exc}", _where(self.file, step)) from None
+        result = self._keep_long(result, target, limits, self._length_rule(step, result.cuts), step)
         self.worst = max(self.worst, result.deviation)
         return result
 
@@ -565,7 +564,7 @@ class Rewriter:
 
         return rule
 
-    def _keep_long(self, result: Plan, target: Target, limits: Limits, rule, where: Location) -> Plan:
+    def _keep_long(self, result: Plan, target: Target, limits: Limits, rule, step: Step) -> Plan:
         """Merge blocks shorter than the rule allows; widen with a warning, or refuse."""
         cuts = list(result.cuts)
         if len(cuts) < 2 or all(cut.length >= rule(cuts, i)[0] for i, cut in enumerate(cuts)):
@@ -586,11 +585,11 @@ class Rewriter:
         if deviation > 2.0 * tolerance:
             raise SafetyError(
                 f"blocks shorter than {shortest * 1000:.1f} um ({reason}) are needed to keep within "
-                f"{tolerance * 1000:.2f} um; merging them would leave {deviation * 1000:.2f} um", where)
+                f"{tolerance * 1000:.2f} um; merging them would leave {deviation * 1000:.2f} um", _where(self.file, step))
         if deviation > tolerance:
             self.reporter.warn(
                 f"blocks merged to keep them longer than {shortest * 1000:.1f} um ({reason}): "
-                f"tolerance widened to {deviation * 1000:.2f} um here", where)
+                f"tolerance widened to {deviation * 1000:.2f} um here", _where(self.file, step))
         return Plan(cuts, deviation, result.method + "+merged", widened=deviation > tolerance)
 
     def _within_limits(self, step: Step, cuts: list[Cut]) -> None:
@@ -605,7 +604,7 @@ class Rewriter:
                 raise SafetyError(
                     f"the compensated move reaches {name} = {beyond:.4f} mm, beyond the soft limit "
                     f"{limits[0]:g} .. {limits[1]:g} mm of the machine profile",
-                    Location(self.file, step.block.line, None, step.block.text))
+                    _where(self.file, step))
 
     # ------------------------------------------------------------------ cycle contours
 
@@ -635,7 +634,7 @@ class Rewriter:
                 raise SafetyError(
                     f"the compensated contour of the cycle on line {step.cycle_line} would no longer run one way in "
                     f"{name}, as the cycle requires (FANUC alarm PS0064); the run is refused",
-                    Location(self.file, step.block.line, None, step.block.text))
+                    _where(self.file, step))
 
     # ------------------------------------------------------------------ self-check
 
@@ -655,19 +654,18 @@ class Rewriter:
                                                   self.file)
         checker.x, checker.z = first.x0, first.z0
         checker.modal = checker.with_motion(step.modal, self.mode_now)
-        where = Location(self.file, step.block.line, None, step.block.text)
         moves: list[Move] = []
         try:
             for block in read_blocks(lines, "<replacement>"):
                 moves.extend(checker.step(block).moves)
         except Exception as exc:  # the replacement must parse and interpret
-            raise SafetyError(f"self-check: the replacement does not read back ({exc})", where) from None
+            raise SafetyError(f"self-check: the replacement does not read back ({exc})", _where(self.file, step)) from None
         if len(moves) != len(cuts):
-            raise SafetyError(f"self-check: {len(cuts)} moves planned, {len(moves)} read back", where)
+            raise SafetyError(f"self-check: {len(cuts)} moves planned, {len(moves)} read back", _where(self.file, step))
         for planned, move in zip(cuts, moves):
             got = _cut_of(move)
-            if max(map(abs, map(operator.sub, _numbers(planned), _numbers(got)))) > 1e-9:
-                raise SafetyError(f"self-check: a block reads back as {got}, planned {planned}", where)
+            if got != planned and max(map(abs, map(operator.sub, _numbers(planned), _numbers(got)))) > 1e-9:
+                raise SafetyError(f"self-check: a block reads back as {got}, planned {planned}", _where(self.file, step))
         tolerance = self._tolerance(step)
         for edit in entry.edits:
             for planned in (edit.plans if edit is not None else ()):
@@ -675,7 +673,12 @@ class Rewriter:
                 if not planned.deviation <= allowed * (1 + 1e-9):
                     raise SafetyError(
                         f"self-check: the replacement runs {planned.deviation * 1000:.2f} um from the intended path "
-                        f"(tolerance {tolerance * 1000:.2f} um)", where)
+                        f"(tolerance {tolerance * 1000:.2f} um)", _where(self.file, step))
+
+
+def _where(file: str, step: Step) -> Location:
+    """Where a replaced block stands, for an error about it."""
+    return Location(file, step.block.line, None, step.block.text)
 
 
 def _cut_of(move: Move) -> Cut:

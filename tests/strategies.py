@@ -110,6 +110,37 @@ def lines(draw) -> str:
 
 
 @st.composite
+def canonical_lines(draw) -> str:
+    """A block in the canonical form a CAM system writes (see postproc.fastpath): N, G00-G03,
+    X Z I K R with a decimal point, F, a simple comment, ``;``, each optional, in that order,
+    one space or none between."""
+
+    def length() -> str:
+        sign = draw(st.sampled_from(["", "", "-", "+"]))
+        whole = draw(st.text("0123456789", min_size=0, max_size=4))
+        fraction = draw(st.text("0123456789", min_size=0 if whole else 1, max_size=4))
+        return f"{sign}{whole}.{fraction}"
+
+    gap = st.sampled_from(["", " "])
+    parts = []
+    if draw(st.booleans()):
+        parts.append(f"N{draw(st.integers(0, 99999))}{draw(gap)}")
+    if draw(st.booleans()):
+        parts.append(f"G{draw(st.sampled_from(['0', '00', '1', '01', '2', '02', '3', '03']))}{draw(gap)}")
+    geometry = draw(st.integers(0, 3)) > 0  # or none at all: an F or a G alone
+    for letter in "XZIKR":
+        if geometry and draw(st.integers(0, 2)) > 0:
+            parts.append(f"{letter}{length()}{draw(gap)}")
+    if draw(st.booleans()):
+        parts.append(f"F{draw(st.sampled_from(['0.2', '.15', '100', '0.150', '12.']))}{draw(gap)}")
+    if draw(st.integers(0, 3)) == 0:
+        parts.append(f"({draw(st.text('ABC 12;-', max_size=8))}){draw(gap)}")
+    if draw(st.booleans()):
+        parts.append(";")
+    return "".join(parts)
+
+
+@st.composite
 def lathe_blocks(draw) -> str:
     """A block a lathe interpreter runs: rapids, lines, dwell and the usual modal codes."""
     parts = [draw(SPACE)]
