@@ -207,6 +207,7 @@ class Rewriter:
         self._contour: tuple[list[Cut], list[Cut]] | None = None
         self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
         self._checker: Interpreter | None = None  # reads replacements back (the self-check)
+        self._grids: dict[bool, Grid] = {}  # by inch
 
     # ------------------------------------------------------------------ streaming
 
@@ -329,8 +330,7 @@ class Rewriter:
         if last_edit is None and first_edit is None:
             return
         if last_edit is not None and first_edit is not None:
-            if self._snap(entry.step, last_edit.end) != self._snap(entry.step, first_edit.start):
-                first_edit.lead_in = self._connector(last_edit.end, first_edit.start, entry.step)
+            first_edit.lead_in = self._connector(last_edit.end, first_edit.start, entry.step)  # None when they meet
             return
         if first_edit is not None:  # only the following move changed: meet its new start
             if self._simple(previous) and not self._starts_contour(previous):
@@ -415,8 +415,12 @@ class Rewriter:
 
     def _grid(self, step: Step) -> Grid:
         inch = step.modal.inch
-        settings = self.settings
-        return Grid(settings.decimals_inch if inch else settings.decimals_mm, inch, settings.diameter)
+        grid = self._grids.get(inch)
+        if grid is None:
+            settings = self.settings
+            grid = self._grids[inch] = Grid(settings.decimals_inch if inch else settings.decimals_mm, inch,
+                                            settings.diameter)
+        return grid
 
     def _tolerance(self, step: Step) -> float:
         if self.settings.tolerance is not None:

@@ -24,6 +24,7 @@ centre, normally to a line; both are upper bounds of the true distance).
 from __future__ import annotations
 
 import math
+from bisect import bisect_left
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 from typing import NamedTuple
@@ -140,13 +141,16 @@ class Cut(NamedTuple):
             n = max(2, math.ceil(self.length / spacing) + 1)
             s = unit_steps(n)[:, None]
             return np.array(self.start) + s * (np.array(self.end) - np.array(self.start))
-        r0, r1, sweep = self._spiral()
-        n = max(8, math.ceil(abs(sweep) * max(r0, r1) / spacing) + 1)
-        s = unit_steps(n)
-        a0 = math.atan2(self.z0 - self.zc, self.x0 - self.xc)
+        s, a0, sweep, r0, r1 = self._steps(spacing)
         theta = a0 + s * sweep
         radius = r0 + s * (r1 - r0)
         return np.column_stack([self.xc + radius * np.cos(theta), self.zc + radius * np.sin(theta)])
+
+    def _steps(self, spacing: float) -> tuple[np.ndarray, float, float, float, float]:
+        """An arc cut's sample parameters, start angle, sweep and radii."""
+        r0, r1, sweep = self._spiral()
+        n = max(8, math.ceil(abs(sweep) * max(r0, r1) / spacing) + 1)
+        return unit_steps(n), math.atan2(self.z0 - self.zc, self.x0 - self.xc), sweep, r0, r1
 
     @property
     def radius_mismatch(self) -> float:
@@ -186,17 +190,49 @@ class Frame:
     def uv(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if isinstance(self.nominal, Arc):
             rel = points - self.centre
-            theta = np.arctan2(rel[:, 1], rel[:, 0])
-            along = (self.sign * (theta - self.mid) + math.pi) % TAU - math.pi + self.half
-            return along * self.r, np.hypot(rel[:, 0], rel[:, 1]) - self.r
+            return self._arc_uv(rel[:, 0], rel[:, 1])
         rel = points - self.origin
         return rel @ self.direction, rel @ self.normal
 
+    def _arc_uv(self, rel_x: np.ndarray, rel_z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """u and v of points given relative to an arc frame's centre (worked in place)."""
+        along = np.arctan2(rel_z, rel_x)
+        along -= self.mid
+        along *= self.sign
+        along += math.pi
+        np.remainder(along, TAU, out=along)
+        along -= math.pi
+        along += self.half
+        along *= self.r
+        across = np.hypot(rel_x, rel_z)
+        across -= self.r
+        return along, across
 
-def _deviation(frame: Frame, target_u: np.ndarray, target_v: np.ndarray, path: np.ndarray) -> float:
-    """Largest distance across the frame between a target and a path, both graphs in u."""
-    pu, pv = frame.uv(path)
-    if (np.diff(pu) < -1e-9).any() or (np.diff(target_u) < -1e-9).any():
+    def path_uv(self, cut: "Cut", spacing: float) -> tuple[np.ndarray, np.ndarray]:
+        """``uv(cut.sample(spacing))``, without stacking the points of an arc cut in an arc frame."""
+        if not (cut.is_arc and isinstance(self.nominal, Arc)):
+            return self.uv(cut.sample(spacing))
+        s, a0, sweep, r0, r1 = cut._steps(spacing)
+        theta = s * sweep
+        theta += a0
+        radius = s * (r1 - r0)
+        radius += r0
+        rel_x = np.cos(theta)
+        rel_x *= radius
+        rel_x += cut.xc
+        rel_x -= self.centre[0]
+        rel_z = np.sin(theta)
+        rel_z *= radius
+        rel_z += cut.zc
+        rel_z -= self.centre[1]
+        return self._arc_uv(rel_x, rel_z)
+
+
+def _deviation(target_u: np.ndarray, target_v: np.ndarray, pu: np.ndarray, pv: np.ndarray,
+               target_graph: bool = True) -> float:
+    """Largest distance across the frame between a target and a path (u, v of each), both
+    graphs in u. ``target_graph`` False: the caller knows the target turns back in u."""
+    if not target_graph or (np.diff(pu) < -1e-9).any():
         return math.inf  # not a graph over the nominal: this path does not follow the target
     low = max(target_u[0], pu[0])
     high = min(target_u[-1], pu[-1])
@@ -236,6 +272,7 @@ class Segmenter:
         self.grid = limits.grid
         self.frame = Frame(target.nominal)
         self.u, self.v = self.frame.uv(target.points)
+        self._backwards = np.flatnonzero(np.diff(self.u) < -1e-9).tolist()  # k where u[k + 1] < u[k]
         self.tol = limits.tolerance
         # A chord sampled every h and read linearly across an arc's frame misses up to h^2/(8r):
         # keep that under a hundredth of the tolerance on small arcs.
@@ -250,10 +287,16 @@ class Segmenter:
 
     # ---------------------------------------------------------------- measuring
 
+    def _graph(self, i: int, j: int) -> bool:
+        """Whether target samples i..j run forwards in u (a graph over the nominal)."""
+        backwards = self._backwards
+        at = bisect_left(backwards, i)
+        return at == len(backwards) or backwards[at] >= j
+
     def _measure(self, cut: Cut, i: int, j: int) -> float:
         """Deviation of one cut from the target samples i..j (and its end points)."""
-        path = cut.sample(self.spacing)
-        deviation = _deviation(self.frame, self.u[i : j + 1], self.v[i : j + 1], path)
+        pu, pv = self.frame.path_uv(cut, self.spacing)
+        deviation = _deviation(self.u[i : j + 1], self.v[i : j + 1], pu, pv, self._graph(i, j))
         ends = max(
             math.dist(cut.start, self.target.points[i]),
             math.dist(cut.end, self.target.points[j]),
@@ -262,8 +305,8 @@ class Segmenter:
 
     def measure(self, cuts: list[Cut]) -> float:
         """Deviation of a whole plan from the whole target."""
-        path = np.concatenate([cut.sample(self.spacing) for cut in cuts])
-        deviation = _deviation(self.frame, self.u, self.v, path)
+        pu, pv = self.frame.uv(np.concatenate([cut.sample(self.spacing) for cut in cuts]))
+        deviation = _deviation(self.u, self.v, pu, pv, self._graph(0, self.last))
         ends = max(math.dist(cuts[0].start, self.target.start), math.dist(cuts[-1].end, self.target.end))
         return max(deviation, ends)
 
@@ -542,8 +585,8 @@ class Segmenter:
 
     def _measure_chord(self, cut: Cut, i: int, j: int) -> float:
         """A chord's vertices stand off the target on purpose: measure only across it."""
-        path = cut.sample(self.spacing)
-        deviation = _deviation(self.frame, self.u[i : j + 1], self.v[i : j + 1], path)
+        pu, pv = self.frame.path_uv(cut, self.spacing)
+        deviation = _deviation(self.u[i : j + 1], self.v[i : j + 1], pu, pv, self._graph(i, j))
         if i == 0:
             deviation = max(deviation, math.dist(cut.start, self.target.start))
         if j == self.last:
