@@ -252,6 +252,15 @@ def _is_atan_call(node) -> bool:
     )
 
 
+def _loop_number(keyword: Token, number: Token) -> int:
+    """The identification number of DO or END: 1, 2 or 3, nothing else."""
+    digits = _digits(number)
+    if not digits.isdigit() or not 1 <= int(digits) <= 3:
+        raise _LineSyntaxError(f"{keyword.upper()}{digits}: the loop number of DO and END is 1, 2 or 3 "
+                               "(FANUC alarm PS0126)", keyword.start_pos)
+    return int(digits)
+
+
 def _statement(node):
     data = node.data
     children = [child for child in node.children if not (isinstance(child, Token) and child in "[]=")]
@@ -262,11 +271,11 @@ def _statement(node):
     if data == "if_then":
         return macro.IfThen(_expr(children[1]), _statement(children[3]))
     if data == "while_do":
-        return macro.WhileDo(_expr(children[1]), int(_digits(children[3])))
+        return macro.WhileDo(_expr(children[1]), _loop_number(children[2], children[3]))
     if data == "do_loop":
-        return macro.DoLoop(int(_digits(children[1])))
+        return macro.DoLoop(_loop_number(children[0], children[1]))
     if data == "end_loop":
-        return macro.EndLoop(int(_digits(children[1])))
+        return macro.EndLoop(_loop_number(children[0], children[1]))
     if data == "goto":
         return macro.Goto(_expr(children[1]))
     if data in ("print_statement", "popen", "pclos"):
