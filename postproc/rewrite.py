@@ -69,6 +69,24 @@ class Piece:
         return points
 
 
+def sample_lines(parts: list[Piece]) -> None:
+    """Sample the points of every straight piece in one array pass (``Line.point_at``'s
+    arithmetic, point for point): a program of short lines has thousands of them."""
+    straight = [piece for piece in parts if type(piece.segment) is Line and "points" not in piece.__dict__]
+    if not straight:
+        return
+    counts = [len(piece.t) for piece in straight]
+    lines = [piece.segment for piece in straight]
+    start = np.repeat(np.array([(line.x0, line.z0) for line in lines]), counts, axis=0)
+    delta = np.repeat(np.array([(line.x1 - line.x0, line.z1 - line.z0) for line in lines]), counts, axis=0)
+    points = start + np.concatenate([piece.t for piece in straight])[:, None] * delta
+    points.setflags(write=False)
+    first = 0
+    for piece, count in zip(straight, counts):
+        piece.__dict__["points"] = points[first : first + count]  # what the cached property would compute
+        first += count
+
+
 def _travel(part: Line | Arc, at: float = 0.5) -> tuple[int, int]:
     """Which way each axis runs at ``at`` (+1, -1, or 0 when it stands still)."""
     x, z = part.direction_at(at)
@@ -208,6 +226,7 @@ class Rewriter:
         self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
         self._checker: Interpreter | None = None  # reads replacements back (the self-check)
         self._grids: dict[bool, Grid] = {}  # by inch
+        self._limits: dict[tuple[float, bool], Limits] = {}  # by tolerance and inch
 
     # ------------------------------------------------------------------ streaming
 
@@ -274,6 +293,7 @@ class Rewriter:
         if not wanted:
             return
         every = [piece for _, _, parts in wanted for piece in parts]
+        sample_lines(every)
         shifts = self.corrector(every)
         given = [shift for shift in shifts if shift is not None]
         if given:  # the largest correction of each corrected piece, in one pass
@@ -529,12 +549,17 @@ class Rewriter:
 
     def _plan(self, step: Step, target: Target) -> Plan:
         settings = self.settings
-        limits = Limits(self._tolerance(step), self._grid(step), settings.arc_radius_tolerance, settings.max_arc_radius)
+        key = (self._tolerance(step), step.modal.inch)
+        limits = self._limits.get(key)
+        if limits is None:
+            limits = self._limits[key] = Limits(key[0], self._grid(step), settings.arc_radius_tolerance,
+                                                settings.max_arc_radius)
         try:
             result = plan(target, limits, settings.mode)
         except PlanError as exc:
             raise SafetyError(f"block cannot be compensated within tolerance: {exc}", _where(self.file, step)) from None
-        result = self._keep_long(result, target, limits, self._length_rule(step, result.cuts), step)
+        if len(result.cuts) > 1:  # one block has no neighbour to merge with
+            result = self._keep_long(result, target, limits, self._length_rule(step, result.cuts), step)
         self.worst = max(self.worst, result.deviation)
         return result
 

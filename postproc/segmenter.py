@@ -244,7 +244,7 @@ def _deviation(target_u: np.ndarray, target_v: np.ndarray, pu: np.ndarray, pv: n
     return float(gap.max())
 
 
-@dataclass
+@dataclass(frozen=True)
 class Limits:
     """What the control accepts and what the plan must keep to."""
 
@@ -377,31 +377,33 @@ class Segmenter:
         if a == b:
             return None, math.inf
         points = self.target.points[i : j + 1]
-        mid = (np.array(a) + np.array(b)) / 2.0
-        chord = np.array(b) - np.array(a)
-        half = np.linalg.norm(chord) / 2.0
-        normal = np.array([-chord[1], chord[0]]) / (2.0 * half)
+        mid = ((a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0)
+        chord = (b[0] - a[0], b[1] - a[1])
+        half = math.sqrt(chord[0] * chord[0] + chord[1] * chord[1]) / 2.0
+        normal = (-chord[1] / (2.0 * half), chord[0] / (2.0 * half))
         start = self._centre_guess(points, i, j)
         if start is None:
             return None, math.inf
-        lam = float((np.array(start) - mid) @ normal)
+        lam = (start[0] - mid[0]) * normal[0] + (start[1] - mid[1]) * normal[1]
         lam = self._refine(points, mid, normal, a, lam)
         if lam is None:
             return None, math.inf
-        centre = mid + lam * normal
+        centre = (mid[0] + lam * normal[0], mid[1] + lam * normal[1])
         radius = math.hypot(half, lam)
         if radius > self.limits.max_arc_radius:
             return None, math.inf
         cw = self._direction(a, b, centre, points[len(points) // 2])
-        cuts = []
+        cuts, rings = [], []
         for cand in self._rounded_centres(a, centre):
-            cut = Cut(a[0], a[1], b[0], b[1], cand[0], cand[1], cw)
-            if cut.radius_mismatch > self.limits.arc_radius_tolerance:
+            r0 = math.hypot(a[0] - cand[0], a[1] - cand[1])  # as Cut._spiral
+            r1 = math.hypot(b[0] - cand[0], b[1] - cand[1])
+            if abs(r1 - r0) > self.limits.arc_radius_tolerance:
                 continue
             if abs(cand[0] - a[0]) < 1e-12 and abs(cand[1] - a[1]) < 1e-12:
                 continue
-            cuts.append(cut)
-        bounds = self._radial_bounds(cuts, points) if cuts else []
+            cuts.append(Cut(a[0], a[1], b[0], b[1], cand[0], cand[1], cw))
+            rings.append((r0, r1) if r0 <= r1 else (r1, r0))
+        bounds = self._radial_bounds(cuts, rings, points) if cuts else []
         candidates = sorted(zip(bounds, range(len(cuts)), cuts))
         ends = max(math.dist(a, self.target.points[i]), math.dist(b, self.target.points[j]))  # as _measure
         best, best_dev = None, math.inf
@@ -414,7 +416,7 @@ class Segmenter:
                 best, best_dev = cut, deviation
         return best, best_dev
 
-    def _radial_bounds(self, cuts: list[Cut], points: np.ndarray) -> list[float]:
+    def _radial_bounds(self, cuts: list[Cut], rings: list[tuple[float, float]], points: np.ndarray) -> list[float]:
         """For each arc cut, a lower bound of what :meth:`_measure` gives, without sampling it.
 
         A target sample's distance to the cut's circle (to the ring between its two radii,
@@ -426,7 +428,7 @@ class Segmenter:
             return [-0.05 * self.tol] * len(cuts)
         inner = points[1:-1]
         centres = np.array([(cut.xc, cut.zc) for cut in cuts])
-        rings = np.array([sorted(cut._spiral()[:2]) for cut in cuts])
+        rings = np.array(rings)
         distance = np.hypot(inner[None, :, 0] - centres[:, None, 0], inner[None, :, 1] - centres[:, None, 1])
         outside = np.maximum(np.maximum(distance - rings[:, 1:2], rings[:, 0:1] - distance), 0.0)
         return (outside.max(axis=1) - 0.05 * self.tol).tolist()
@@ -457,15 +459,17 @@ class Segmenter:
         for _ in range(iterations):
             dist = np.hypot(rel_x - lam * nx, rel_z - lam * nz)
             radius = math.hypot(half, lam)
-            if radius == 0 or (dist == 0).any():
+            if radius == 0 or not dist.all():
                 return None
-            residual = dist - radius
             # d(dist)/d(lam) = -(q - lam)/dist ; d(radius)/d(lam) = lam/radius
-            jac = (lam - q) / dist - lam / radius
+            jac = lam - q
+            jac /= dist
+            jac -= lam / radius
             denominator = float(jac @ jac)
             if denominator == 0:
                 return lam
-            step = -float(jac @ residual) / denominator
+            dist -= radius  # the residual
+            step = -float(jac @ dist) / denominator
             lam += step
             if abs(step) < 1e-12 * max(1.0, abs(lam)):
                 break
@@ -480,17 +484,14 @@ class Segmenter:
         return ((tm - t0) % TAU) < ((t1 - t0) % TAU)
 
     def _rounded_centres(self, a, centre):
+        """The centres the four roundings of I and K (down or up, each) give."""
         grid = self.grid
+        step, decimals = grid.step, grid.decimals
         ix = (centre[0] - a[0]) / grid.unit
         kz = (centre[1] - a[1]) / grid.unit
-        step = grid.step
-        options = set()
-        for fx in (math.floor, math.ceil):
-            for fz in (math.floor, math.ceil):
-                i_word = round(fx(ix / step) * step, grid.decimals)
-                k_word = round(fz(kz / step) * step, grid.decimals)
-                options.add((a[0] + grid.offset_of(i_word), a[1] + grid.offset_of(k_word)))
-        return options
+        xs = [a[0] + grid.offset_of(round(fx(ix / step) * step, decimals)) for fx in (math.floor, math.ceil)]
+        zs = [a[1] + grid.offset_of(round(fz(kz / step) * step, decimals)) for fz in (math.floor, math.ceil)]
+        return {(x, z) for x in xs for z in zs}
 
     # ---------------------------------------------------------------- plans
 

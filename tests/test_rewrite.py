@@ -15,7 +15,8 @@ from postproc.diagnostics import Reporter, SafetyError
 from postproc.geometry import Arc
 from postproc.program import interpret_source
 from postproc import rewrite as rewrite_module
-from postproc.rewrite import Rewriter, Settings
+from postproc.motion import ARC, LINE, Move
+from postproc.rewrite import Rewriter, Settings, pieces, sample_lines
 from postproc.segmenter import chord_minimum
 from postproc.source import Source
 
@@ -267,3 +268,13 @@ def test_batches_of_any_size_write_the_same_program(monkeypatch):
     for size in (1, 2, 7):
         monkeypatch.setattr(rewrite_module, "BATCH", size)
         assert rewrite(text, backlash, tolerance=0.001)[0] == whole
+
+
+def test_lines_sampled_together_are_sampled_as_each_alone():
+    path = [Move(LINE, 1, 10.0, 2.0, 10.0, 0.0), Move(ARC, 2, 10.0, 0.0, 12.0, -2.0, xc=12.0, zc=0.0, cw=False),
+            Move(LINE, 3, 12.0, -2.0, 12.37, -9.123)]
+    parts = [piece for move in path for piece in pieces(move)]
+    sample_lines(parts)
+    for piece in parts:
+        assert np.array_equal(piece.points, piece.segment.point_at(piece.t))
+        assert not piece.points.flags.writeable
