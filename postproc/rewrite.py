@@ -39,7 +39,7 @@ from .interpreter import Interpreter
 from .motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
 from .reader import read_blocks
 from .resolution import Grid
-from .segmenter import Cut, Limits, Plan, PlanError, Segmenter, Target, plan, sample_params
+from .segmenter import Cut, Limits, Plan, PlanError, Segmenter, Target, measure_bends, plan, sample_params
 
 JOIN = 1e-9  #: nominal points closer than this are the same point
 BATCH = 256  #: steps read ahead so that their pieces are corrected in one call
@@ -105,8 +105,8 @@ def pieces(move: Move, last: tuple[int, int] = (0, 0)) -> list[Piece]:
         bounds = [0.0, *segment.reversal_params(), 1.0]
     result = []
     for a, b in zip(bounds, bounds[1:]):
-        if isinstance(segment, Line):
-            part = segment
+        if isinstance(segment, Line) or (len(bounds) == 2 and segment.r1 is None):
+            part = segment  # the whole move: part(0, 1) would be the same arc
         else:
             part = segment.part(a, b)
         x, z = _travel(part)
@@ -301,6 +301,7 @@ class Rewriter:
             joined = np.concatenate(given) if len(given) > 1 else given[0]
             sizes = iter(np.maximum.reduceat(np.hypot(joined[:, 0], joined[:, 1]), starts).tolist())
         first = 0
+        lines: list[Target] = []  # the straight targets, for measure_bends
         for entry, index, parts in wanted:
             mine = shifts[first : first + len(parts)]
             first += len(parts)
@@ -322,6 +323,9 @@ class Rewriter:
             if moved:
                 edit = Edit(parts[0].move, _merge_continuous(targets, self._tolerance(entry.step) / 10.0))
                 entry.edits[index] = edit
+                if type(edit.targets[0].nominal) is Line:
+                    lines.append(edit.targets[0])
+        measure_bends(lines)
 
     # ------------------------------------------------------------------ joins
 

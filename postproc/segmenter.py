@@ -62,6 +62,13 @@ class Target:
     def points(self) -> np.ndarray:
         return self.nominal.point_at(self.t) + self.d
 
+    @cached_property
+    def bend(self) -> float:
+        """How far the displacement departs from changing linearly along the move, mm."""
+        d = self.d
+        linear = d[0] + self.t[:, None] * (d[-1] - d[0])
+        return float(np.abs(d - linear).max())
+
     @property
     def start(self) -> tuple[float, float]:
         return tuple(self.points[0])
@@ -69,6 +76,23 @@ class Target:
     @property
     def end(self) -> tuple[float, float]:
         return tuple(self.points[-1])
+
+
+def measure_bends(targets: list[Target]) -> None:
+    """:attr:`Target.bend` of many targets in one array pass, the same arithmetic row for row:
+    the planner asks it of every line, and a program has thousands of short ones."""
+    targets = [target for target in targets if "bend" not in target.__dict__]
+    if not targets:
+        return
+    counts = [len(target.t) for target in targets]
+    d = np.concatenate([target.d for target in targets])
+    first = np.repeat(np.array([target.d[0] for target in targets]), counts, axis=0)
+    last = np.repeat(np.array([target.d[-1] for target in targets]), counts, axis=0)
+    linear = first + np.concatenate([target.t for target in targets])[:, None] * (last - first)
+    starts = np.cumsum([0] + counts[:-1])
+    bends = np.maximum.reduceat(np.abs(d - linear).max(axis=1), starts).tolist()
+    for target, bend in zip(targets, bends):
+        target.__dict__["bend"] = bend  # what the cached property would compute
 
 
 def sample_params(nominal: Segment, spacing: float = 0.05, lowest: int = 16, highest: int = 1024) -> np.ndarray:
@@ -653,9 +677,7 @@ def _straight(target: Target, limits: Limits) -> Plan | None:
     The common case of a whole program's short lines, planned without sampling."""
     if not isinstance(target.nominal, Line):
         return None
-    d = target.d
-    linear = d[0] + target.t[:, None] * (d[-1] - d[0])
-    if float(np.abs(d - linear).max()) > 1e-12:
+    if target.bend > 1e-12:
         return None
     start, end = target.points[0], target.points[-1]
     a, b = limits.grid.snap(*start), limits.grid.snap(*end)
@@ -677,4 +699,4 @@ def chord_minimum(radius: float, sweep: float, tolerance: float) -> int:
     return math.ceil(abs(sweep) / step)
 
 
-__all__ = ["Target", "Cut", "Plan", "Limits", "plan", "PlanError", "sample_params", "chord_minimum", "Line", "Arc"]
+__all__ = ["Target", "Cut", "Plan", "Limits", "plan", "PlanError", "sample_params", "measure_bends", "chord_minimum", "Line", "Arc"]

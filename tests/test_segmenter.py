@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from postproc.geometry import Arc, Line
 from postproc.profile import DEFAULT
 from postproc.resolution import Grid
-from postproc.segmenter import Limits, Segmenter, Target, chord_minimum, plan, sample_params
+from postproc.segmenter import Limits, Segmenter, Target, chord_minimum, measure_bends, plan, sample_params
 
 MM = Grid(3, False, True)
 HEMISHELL = Arc.through((0.0, 57.15), (57.15, 0.0), (0.0, 0.0), cw=False)
@@ -162,3 +162,16 @@ def test_random_line_targets_are_planned_within_tolerance(target, tolerance):
     _check_plan(target, auto, limits)
     _check_plan(target, line, limits)
     assert len(auto.cuts) <= len(line.cuts)
+
+
+def test_bends_measured_together_are_each_target_s_own():
+    rng = np.random.default_rng(5)
+    targets = []
+    for count, curved in ((17, False), (40, True), (3, True)):
+        t = np.linspace(0.0, 1.0, count)
+        d = np.column_stack([0.002 + 0.001 * t, -0.003 * t]) + (rng.normal(0, 1e-4, (count, 2)) if curved else 0.0)
+        targets.append(Target(Line(0.0, 0.0, 1.0, -2.0), t, d))
+    alone = [Target(target.nominal, target.t, target.d).bend for target in targets]
+    measure_bends(targets)
+    assert [target.bend for target in targets] == alone
+    assert alone[0] < 1e-12 < min(alone[1:])
