@@ -17,7 +17,7 @@ from functools import lru_cache
 
 from . import gcodes as G
 from .blocks import Block
-from .resolution import Grid
+from .resolution import Grid, rounded
 from .segmenter import Cut
 
 _GEOMETRY = frozenset("XZUWIKR") | {",C", ",R", ",A"}
@@ -98,7 +98,7 @@ class Style:
         return self.word("G", digits if tenth == 0 else f"{digits}.{tenth}")
 
 
-@dataclass
+@dataclass(frozen=True)
 class Writer:
     """Turns planned cuts into block text for one program."""
 
@@ -122,8 +122,8 @@ class Writer:
         grid = self.grid
         x_word, z_word = grid.x_word(cut.x1), grid.z_word(cut.z1)
         if not self.absolute:
-            x_word = round(x_word - grid.x_word(cut.x0), grid.decimals)
-            z_word = round(z_word - grid.z_word(cut.z0), grid.decimals)
+            x_word = rounded(x_word - grid.x_word(cut.x0), grid.decimals)
+            z_word = rounded(z_word - grid.z_word(cut.z0), grid.decimals)
         words = [style.word("X", style.number(x_word, grid.decimals)), style.word("Z", style.number(z_word, grid.decimals))]
         if cut.is_arc:
             i_word = grid.offset_word(cut.xc - cut.x0)

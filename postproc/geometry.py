@@ -154,7 +154,10 @@ class Arc:
         t = np.asarray(t, dtype=float)
         theta = self.theta0 + t * self.sweep
         r = self.radius_at(t)
-        return np.stack([self.xc + r * np.cos(theta), self.zc + r * np.sin(theta)], axis=-1)
+        points = np.empty(np.shape(theta) + (2,))  # filled column by column: np.stack costs more than the sums
+        points[..., 0] = self.xc + r * np.cos(theta)
+        points[..., 1] = self.zc + r * np.sin(theta)
+        return points
 
     def tangent_at(self, t) -> np.ndarray:
         theta = self.theta0 + np.asarray(t, dtype=float) * self.sweep

@@ -15,6 +15,13 @@ from dataclasses import dataclass
 INCH = 25.4
 
 
+def rounded(value: float, decimals: int) -> float:
+    """``round(value, decimals)``, the same correctly rounded result (half to even on the exact
+    binary value), through one format and one parse: round() on a float builds and parses an
+    exponent string as well, and a compensation run rounds every coordinate it writes."""
+    return float("%.*f" % (decimals, value))
+
+
 @dataclass(frozen=True, slots=True)
 class Grid:
     decimals: int  #: decimals written
@@ -41,7 +48,7 @@ class Grid:
         return self.step * self.unit
 
     def _round(self, value: float) -> float:
-        return round(value, self.decimals) + 0.0
+        return rounded(value, self.decimals) + 0.0
 
     def x_word(self, x: float) -> float:
         """The X value written for radius x (mm)."""
@@ -71,7 +78,7 @@ class Grid:
         d = 2.0 if self.diameter else 1.0
         decimals = self.decimals
         x, z = float(x), float(z)
-        return (round(x * d / unit, decimals) + 0.0) * unit / d, (round(z / unit, decimals) + 0.0) * unit
+        return (rounded(x * d / unit, decimals) + 0.0) * unit / d, (rounded(z / unit, decimals) + 0.0) * unit
 
     def snap_offset(self, length: float) -> float:
         return self.offset_of(self.offset_word(length))

@@ -38,7 +38,7 @@ from .geometry import TAU, Arc, Line, segment_of
 from .interpreter import Interpreter
 from .motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
 from .reader import read_blocks
-from .resolution import Grid
+from .resolution import Grid, rounded
 from .segmenter import Cut, Limits, Plan, PlanError, Segmenter, Target, measure_bends, plan, sample_params
 
 JOIN = 1e-9  #: nominal points closer than this are the same point
@@ -90,7 +90,7 @@ def sample_lines(parts: list[Piece]) -> None:
 def _travel(part: Line | Arc, at: float = 0.5) -> tuple[int, int]:
     """Which way each axis runs at ``at`` (+1, -1, or 0 when it stands still)."""
     x, z = part.direction_at(at)
-    return _sign(round(x, 12)), _sign(round(z, 12))
+    return _sign(rounded(x, 12)), _sign(rounded(z, 12))
 
 
 def pieces(move: Move, last: tuple[int, int] = (0, 0)) -> list[Piece]:
@@ -139,7 +139,7 @@ def travel_after(move: Move, last: tuple[int, int]) -> tuple[int, int]:
         theta = theta0 + sweep
         sign = 1.0 if sweep >= 0 else -1.0
         tx, tz = -sign * math.sin(theta), sign * math.cos(theta)
-    x, z = _sign(round(tx, 12)), _sign(round(tz, 12))
+    x, z = _sign(rounded(tx, 12)), _sign(rounded(tz, 12))
     return (x or last[0], z or last[1])
 
 
@@ -226,6 +226,7 @@ class Rewriter:
         self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
         self._checker: Interpreter | None = None  # reads replacements back (the self-check)
         self._grids: dict[bool, Grid] = {}  # by inch
+        self._writers: dict[tuple[bool, bool], Writer] = {}  # by inch and absolute
         self._limits: dict[tuple[float, bool], Limits] = {}  # by tolerance and inch
 
     # ------------------------------------------------------------------ streaming
@@ -446,6 +447,13 @@ class Rewriter:
                                             settings.diameter)
         return grid
 
+    def _writer(self, step: Step) -> Writer:
+        key = (step.modal.inch, step.modal.absolute)
+        writer = self._writers.get(key)
+        if writer is None:
+            writer = self._writers[key] = Writer(self._grid(step), self.settings.system, step.modal.absolute)
+        return writer
+
     def _tolerance(self, step: Step) -> float:
         if self.settings.tolerance is not None:
             return self.settings.tolerance
@@ -461,7 +469,7 @@ class Rewriter:
         if first.length + second.length >= 2.0 * shortest and not first.is_arc and not second.is_arc:
             ends = np.array([first.start, second.end])
             index = [int(np.argmin(np.hypot(*(target.points - end).T))) for end in ends]
-            middle = grid.snap(*target.points[(index[0] + index[1]) // 2])
+            middle = grid.snap(*target.points[(index[0] + index[1]) // 2].tolist())
             halves = [Cut(*first.start, *middle), Cut(*middle, *second.end)]
             if all(cut.length >= shortest for cut in halves):
                 return halves
@@ -492,7 +500,7 @@ class Rewriter:
                     and not any(_group(value, self.settings.system) == G.ONE_SHOT for value in codes)
                 )
             if relies and self.mode_now is not None and before is not None and self.mode_now != before:
-                writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
+                writer = self._writer(step)
                 yield with_motion_code(block, writer.code(before, Style.of(block)))
                 self.mode_now = before
                 return
@@ -503,7 +511,7 @@ class Rewriter:
             return
         cuts = self._cuts(entry)
         self._within_limits(step, cuts)
-        writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
+        writer = self._writer(step)
         lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
         self._self_check(entry, lines, cuts)
         self._follow_contour(step, cuts)

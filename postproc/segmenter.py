@@ -33,7 +33,7 @@ import numpy as np
 
 from .fitting import FitError, hyper_fit
 from .geometry import TAU, Arc, Line, Segment
-from .resolution import Grid
+from .resolution import Grid, rounded
 
 AUTO, ARC_MODE, LINE_MODE = "auto", "arc", "line"
 
@@ -71,11 +71,11 @@ class Target:
 
     @property
     def start(self) -> tuple[float, float]:
-        return tuple(self.points[0])
+        return tuple(self.points[0].tolist())  # tolist: iterating a numpy row costs an IndexError at its end
 
     @property
     def end(self) -> tuple[float, float]:
-        return tuple(self.points[-1])
+        return tuple(self.points[-1].tolist())
 
 
 def measure_bends(targets: list[Target]) -> None:
@@ -168,7 +168,10 @@ class Cut(NamedTuple):
         s, a0, sweep, r0, r1 = self._steps(spacing)
         theta = a0 + s * sweep
         radius = r0 + s * (r1 - r0)
-        return np.column_stack([self.xc + radius * np.cos(theta), self.zc + radius * np.sin(theta)])
+        points = np.empty((len(s), 2))
+        points[:, 0] = self.xc + radius * np.cos(theta)
+        points[:, 1] = self.zc + radius * np.sin(theta)
+        return points
 
     def _steps(self, spacing: float) -> tuple[np.ndarray, float, float, float, float]:
         """An arc cut's sample parameters, start angle, sweep and radii."""
@@ -256,7 +259,7 @@ def _deviation(target_u: np.ndarray, target_v: np.ndarray, pu: np.ndarray, pv: n
                target_graph: bool = True) -> float:
     """Largest distance across the frame between a target and a path (u, v of each), both
     graphs in u. ``target_graph`` False: the caller knows the target turns back in u."""
-    if not target_graph or (np.diff(pu) < -1e-9).any():
+    if not target_graph or np.fmin.reduce(pu[1:] - pu[:-1]) < -1e-9:  # a step back (fmin: as any(), NaN aside)
         return math.inf  # not a graph over the nominal: this path does not follow the target
     low = max(target_u[0], pu[0])
     high = min(target_u[-1], pu[-1])
@@ -296,7 +299,7 @@ class Segmenter:
         self.grid = limits.grid
         self.frame = Frame(target.nominal)
         self.u, self.v = self.frame.uv(target.points)
-        self._backwards = np.flatnonzero(np.diff(self.u) < -1e-9).tolist()  # k where u[k + 1] < u[k]
+        self._backwards = np.flatnonzero(self.u[1:] - self.u[:-1] < -1e-9).tolist()  # k where u[k + 1] < u[k]
         self.tol = limits.tolerance
         # A chord sampled every h and read linearly across an arc's frame misses up to h^2/(8r):
         # keep that under a hundredth of the tolerance on small arcs.
@@ -322,8 +325,8 @@ class Segmenter:
         pu, pv = self.frame.path_uv(cut, self.spacing)
         deviation = _deviation(self.u[i : j + 1], self.v[i : j + 1], pu, pv, self._graph(i, j))
         ends = max(
-            math.dist(cut.start, self.target.points[i]),
-            math.dist(cut.end, self.target.points[j]),
+            math.dist(cut.start, self.target.points[i].tolist()),
+            math.dist(cut.end, self.target.points[j].tolist()),
         )
         return max(deviation, ends)
 
@@ -338,8 +341,7 @@ class Segmenter:
 
     def _snap_index(self, index: int) -> tuple[float, float]:
         """Sample ``index`` moved onto the grid; the end points of the target stay end points."""
-        point = self.target.points[index]
-        return self.grid.snap(*point)
+        return self.grid.snap(*self.target.points[index].tolist())
 
     def _vertex(self, index: int, offset: float = 0.0) -> tuple[float, float]:
         """A grid point near sample ``index``, ``offset`` outside the target (across the frame).
@@ -353,13 +355,13 @@ class Segmenter:
         point = self.target.points[index]
         outward = self._outward(index)
         wanted = point + offset * outward
-        base = self.grid.snap(*wanted)
+        base = self.grid.snap(*wanted.tolist())
         candidates = np.array([self.grid.snap(base[0] + dx * self.grid.x_step, base[1] + dz * self.grid.z_step)
                                for dx in (-1, 0, 1) for dz in (-1, 0, 1)])
         cu, cv = self.frame.uv(candidates)
         stand = cv - np.interp(cu, self.u, self.v)
         error = np.abs(stand - offset * self._v_sign(outward)) + 0.1 * np.hypot(*(candidates - wanted).T)
-        best = tuple(float(value) for value in candidates[int(np.argmin(error))])
+        best = tuple(candidates[int(np.argmin(error))].tolist())
         if offset == 0.0:
             self.vertices[index] = best
         return best
@@ -416,7 +418,7 @@ class Segmenter:
         radius = math.hypot(half, lam)
         if radius > self.limits.max_arc_radius:
             return None, math.inf
-        cw = self._direction(a, b, centre, points[len(points) // 2])
+        cw = self._direction(a, b, centre, points[len(points) // 2].tolist())
         cuts, rings = [], []
         for cand in self._rounded_centres(a, centre):
             r0 = math.hypot(a[0] - cand[0], a[1] - cand[1])  # as Cut._spiral
@@ -429,7 +431,7 @@ class Segmenter:
             rings.append((r0, r1) if r0 <= r1 else (r1, r0))
         bounds = self._radial_bounds(cuts, rings, points) if cuts else []
         candidates = sorted(zip(bounds, range(len(cuts)), cuts))
-        ends = max(math.dist(a, self.target.points[i]), math.dist(b, self.target.points[j]))  # as _measure
+        ends = max(math.dist(a, self.target.points[i].tolist()), math.dist(b, self.target.points[j].tolist()))  # as _measure
         best, best_dev = None, math.inf
         for bound, _, cut in candidates:
             bound = max(bound, ends)
@@ -459,7 +461,7 @@ class Segmenter:
 
     def _centre_guess(self, points: np.ndarray, i: int, j: int):
         if isinstance(self.frame.nominal, Arc) and j - i >= 0.5 * self.last:
-            return tuple(self.frame.centre)
+            return tuple(self.frame.centre.tolist())
         if len(points) >= 3:
             try:
                 xc, zc, _ = hyper_fit(points)
@@ -483,7 +485,7 @@ class Segmenter:
         for _ in range(iterations):
             dist = np.hypot(rel_x - lam * nx, rel_z - lam * nz)
             radius = math.hypot(half, lam)
-            if radius == 0 or not dist.all():
+            if radius == 0 or np.minimum.reduce(dist) == 0.0:  # a sample at the centre
                 return None
             # d(dist)/d(lam) = -(q - lam)/dist ; d(radius)/d(lam) = lam/radius
             jac = lam - q
@@ -513,8 +515,8 @@ class Segmenter:
         step, decimals = grid.step, grid.decimals
         ix = (centre[0] - a[0]) / grid.unit
         kz = (centre[1] - a[1]) / grid.unit
-        xs = [a[0] + grid.offset_of(round(fx(ix / step) * step, decimals)) for fx in (math.floor, math.ceil)]
-        zs = [a[1] + grid.offset_of(round(fz(kz / step) * step, decimals)) for fz in (math.floor, math.ceil)]
+        xs = [a[0] + grid.offset_of(rounded(fx(ix / step) * step, decimals)) for fx in (math.floor, math.ceil)]
+        zs = [a[1] + grid.offset_of(rounded(fz(kz / step) * step, decimals)) for fz in (math.floor, math.ceil)]
         return {(x, z) for x in xs for z in zs}
 
     # ---------------------------------------------------------------- plans
@@ -679,7 +681,7 @@ def _straight(target: Target, limits: Limits) -> Plan | None:
         return None
     if target.bend > 1e-12:
         return None
-    start, end = target.points[0], target.points[-1]
+    start, end = target.points[0].tolist(), target.points[-1].tolist()
     a, b = limits.grid.snap(*start), limits.grid.snap(*end)
     if a == b:
         return None
