@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 INCH = 25.4
 
@@ -20,6 +21,15 @@ def rounded(value: float, decimals: int) -> float:
     binary value), through one format and one parse: round() on a float builds and parses an
     exponent string as well, and a compensation run rounds every coordinate it writes."""
     return float("%.*f" % (decimals, value))
+
+
+@lru_cache(maxsize=256)
+def _snapped(x: float, z: float, decimals: int, inch: bool, diameter: bool) -> tuple[float, float]:
+    """:meth:`Grid.snap`, remembered: a run snaps each end point several times over (planning
+    it, joining it to the next move, connecting it)."""
+    unit = INCH if inch else 1.0
+    d = 2.0 if diameter else 1.0
+    return (rounded(x * d / unit, decimals) + 0.0) * unit / d, (rounded(z / unit, decimals) + 0.0) * unit
 
 
 @dataclass(frozen=True, slots=True)
@@ -74,11 +84,7 @@ class Grid:
     def snap(self, x: float, z: float) -> tuple[float, float]:
         """A point moved onto the grid, in radius mm (``x_of(x_word(x))``, ``z_of(z_word(z))``,
         written out: the segmenter snaps candidate vertices by the thousand)."""
-        unit = INCH if self.inch else 1.0
-        d = 2.0 if self.diameter else 1.0
-        decimals = self.decimals
-        x, z = float(x), float(z)
-        return (rounded(x * d / unit, decimals) + 0.0) * unit / d, (rounded(z / unit, decimals) + 0.0) * unit
+        return _snapped(float(x), float(z), self.decimals, self.inch, self.diameter)
 
     def snap_offset(self, length: float) -> float:
         return self.offset_of(self.offset_word(length))

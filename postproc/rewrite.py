@@ -90,7 +90,7 @@ def sample_lines(parts: list[Piece]) -> None:
 def _travel(part: Line | Arc, at: float = 0.5) -> tuple[int, int]:
     """Which way each axis runs at ``at`` (+1, -1, or 0 when it stands still)."""
     x, z = part.direction_at(at)
-    return _sign(rounded(x, 12)), _sign(rounded(z, 12))
+    return _way(x), _way(z)
 
 
 def pieces(move: Move, last: tuple[int, int] = (0, 0)) -> list[Piece]:
@@ -139,12 +139,19 @@ def travel_after(move: Move, last: tuple[int, int]) -> tuple[int, int]:
         theta = theta0 + sweep
         sign = 1.0 if sweep >= 0 else -1.0
         tx, tz = -sign * math.sin(theta), sign * math.cos(theta)
-    x, z = _sign(rounded(tx, 12)), _sign(rounded(tz, 12))
+    x, z = _way(tx), _way(tz)
     return (x or last[0], z or last[1])
 
 
 def _sign(value: float) -> int:
     return (value > 0.0) - (value < 0.0)
+
+
+def _way(component: float) -> int:
+    """The way a unit tangent's component runs: its sign once rounded to 12 places (so that
+    a line a rounding error off the axis still stands still). Beyond 1e-12 the rounding
+    cannot change the sign, and is skipped."""
+    return _sign(component) if abs(component) > 1e-12 else _sign(rounded(component, 12))
 
 
 #: The corrections wanted for a run of pieces, in order: an (n, 2) array or None for each.

@@ -278,3 +278,8 @@ def test_lines_sampled_together_are_sampled_as_each_alone():
     for piece in parts:
         assert np.array_equal(piece.points, piece.segment.point_at(piece.t))
         assert not piece.points.flags.writeable
+
+
+@given(st.one_of(st.floats(-1.0, 1.0), st.floats(-1e-11, 1e-11)))
+def test_the_way_an_axis_runs_is_the_sign_of_its_rounded_component(component):
+    assert rewrite_module._way(component) == rewrite_module._sign(round(component, 12))
