@@ -505,9 +505,7 @@ class Interpreter:
                 values["K"] = float(k) * scale
             if r is not None:
                 values["R"] = float(r) * scale
-            if not keep:
-                if type(block) is tuple:  # the block only an alarm would need
-                    block = canonical_block(*block)
+            if not keep:  # block may still be the reader's tuple: an alarm makes it a block
                 self._arc_centre(block, values, motion == 20, x1, z1)
                 self.x, self.z = x1, z1
                 return 1
@@ -889,8 +887,9 @@ class Interpreter:
         self._note_corner(step, block, values)
         return step
 
-    def _arc_centre(self, block: Block, values: dict[str, float], cw: bool, x1, z1) -> tuple[float, float]:
-        """The centre of the arc from here to (x1, z1), or the control's alarm."""
+    def _arc_centre(self, block: Block | tuple, values: dict[str, float], cw: bool, x1, z1) -> tuple[float, float]:
+        """The centre of the arc from here to (x1, z1), or the control's alarm (``block`` may
+        be the reader's light tuple: only an alarm reads it)."""
         if None in (self.x, self.z, x1, z1):
             self.x, self.z = x1, z1
             raise _Uninterpretable("an arc from or to a position that is not known", None,
@@ -1166,11 +1165,14 @@ class Interpreter:
 
     # ------------------------------------------------------------------ positions in messages
 
-    def _location(self, block: Block, col: int | None) -> Location:
-        return Location(self.file, block.line, None if col is None else col + 1, block.text)
+    def _location(self, block: Block | tuple, col: int | None) -> Location:
+        line, text = (block[0], block[1]) if type(block) is tuple else (block.line, block.text)
+        return Location(self.file, line, None if col is None else col + 1, text)
 
     @staticmethod
-    def _col(block: Block, letter: str, occurrence: int = 1) -> int | None:
+    def _col(block: Block | tuple, letter: str, occurrence: int = 1) -> int | None:
+        if type(block) is tuple:  # the reader's light tuple of a canonical line
+            block = canonical_block(*block)
         seen = 0
         for word in block.words:
             if word.letter == letter:
