@@ -32,7 +32,7 @@ import numpy as np
 
 from . import gcodes as G
 from .blocks import Block
-from .diagnostics import Location, Reporter, SafetyError
+from .diagnostics import Location, PostprocError, Reporter, SafetyError
 from .emitter import Style, Writer, with_motion_code
 from .geometry import TAU, Arc, Line, segment_of
 from .interpreter import Interpreter
@@ -183,6 +183,7 @@ class Entry:
     step: Step
     edits: list[Edit | None] = field(default_factory=list)  #: one per move of the step
     retarget: tuple[tuple[float, float] | None, tuple[float, float] | None] | None = None  #: new (start, end)
+    refusal: PostprocError | None = None  #: found while correcting the batch, raised when the step is reached
 
     @property
     def edited(self) -> bool:
@@ -244,6 +245,8 @@ class Rewriter:
         self.mode_now = self.original_mode = None
         for batch in self._corrected(self.steps):
             for entry in batch:
+                if entry.refusal is not None:
+                    raise entry.refusal
                 if entry.motion:
                     if previous is not None:
                         self._join(previous, entry)
@@ -260,15 +263,21 @@ class Rewriter:
         """The steps in batches of at most BATCH, each motion step with its edits: the pieces
         of a whole batch go to the corrector in one call (a bounded look-ahead)."""
         batch: list[Entry] = []
-        for step in steps:
-            batch.append(Entry(step))
-            if len(batch) == BATCH:
-                self._correct(batch)
-                yield batch
-                batch = []
+        alarm = None
+        try:
+            for step in steps:
+                batch.append(Entry(step))
+                if len(batch) == BATCH:
+                    self._correct(batch)
+                    yield batch
+                    batch = []
+        except PostprocError as exc:  # the blocks before it are written first: an error there comes first
+            alarm = exc
         if batch:
             self._correct(batch)
             yield batch
+        if alarm is not None:
+            raise alarm
 
     # ------------------------------------------------------------------ corrections
 
@@ -321,10 +330,10 @@ class Rewriter:
                     shift = np.zeros((len(piece.t), 2))
                 else:
                     size = next(sizes)
-                    if size > self.settings.max_correction:
-                        raise SafetyError(f"a correction of {size:.4f} mm exceeds the maximum correction "
-                                          f"{self.settings.max_correction:g} mm (--max-correction)",
-                                          Location(self.file, piece.move.line))
+                    if size > self.settings.max_correction and entry.refusal is None:  # raised in program order
+                        entry.refusal = SafetyError(f"a correction of {size:.4f} mm exceeds the maximum correction "
+                                                    f"{self.settings.max_correction:g} mm (--max-correction)",
+                                                    Location(self.file, piece.move.line))
                     self.largest = max(self.largest, size)
                     moved = moved or size > 0.0
                 targets.append(Target.along(piece.segment, piece.t, shift, piece.points))

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from conftest import SAMPLES
 from interpret import moves
-from postproc.diagnostics import Reporter, SafetyError
+from postproc.diagnostics import InterpretationError, Reporter, SafetyError
 from postproc.geometry import Arc
 from postproc.program import interpret_source
 from postproc import rewrite as rewrite_module
@@ -283,3 +283,18 @@ def test_lines_sampled_together_are_sampled_as_each_alone():
 @given(st.one_of(st.floats(-1.0, 1.0), st.floats(-1e-11, 1e-11)))
 def test_the_way_an_axis_runs_is_the_sign_of_its_rounded_component(component):
     assert rewrite_module._way(component) == rewrite_module._sign(round(component, 12))
+
+
+def test_of_two_errors_the_first_in_the_program_is_the_one_reported():
+    """Corrections are worked out a batch ahead; an error found there, or an alarm further on
+    in the batch, must not be reported before an error in an earlier block."""
+    lines = ["G18 G21 G99", "G00 X20. Z2.", "G01 Z0. F0.1", "G02 X24. Z-2. R2."]
+    lines += [f"G01 X24. Z{-2.5 - 0.5 * k:.1f}" for k in range(20)]
+    lines += ["G02 X40. Z-20. I5. K0."]  # off the circle: the control alarms here
+    text = "\n".join(lines) + "\n"
+    with pytest.raises(SafetyError) as info:
+        rewrite(text, radial(0.003), tolerance=0.001, max_correction=0.002)
+    assert "exceeds the maximum correction" in info.value.message and info.value.location.line == 4
+    with pytest.raises(InterpretationError) as alarm:  # without the first error, the alarm
+        rewrite(text, radial(0.003), tolerance=0.001)
+    assert alarm.value.location.line == 25
