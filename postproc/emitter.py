@@ -98,7 +98,7 @@ class Style:
         return self.word("G", digits if tenth == 0 else f"{digits}.{tenth}")
 
 
-@dataclass(frozen=True)
+@dataclass
 class Writer:
     """Turns planned cuts into block text for one program."""
 
@@ -181,7 +181,6 @@ class Writer:
             parts += self.geometry_words(cut, style)
         parts += [comment.text for comment in block.comments]
         return parts
-
 
     def _first_canonical_words(self, block: Block, style: Style, wanted: int, mode, cut: Cut,
                                label_last: bool) -> list[str]:

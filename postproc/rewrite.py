@@ -234,7 +234,6 @@ class Rewriter:
         self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
         self._checker: Interpreter | None = None  # reads replacements back (the self-check)
         self._grids: dict[bool, Grid] = {}  # by inch
-        self._writers: dict[tuple[bool, bool], Writer] = {}  # by inch and absolute
         self._limits: dict[tuple[float, bool], Limits] = {}  # by tolerance and inch
 
     # ------------------------------------------------------------------ streaming
@@ -463,13 +462,6 @@ class Rewriter:
                                             settings.diameter)
         return grid
 
-    def _writer(self, step: Step) -> Writer:
-        key = (step.modal.inch, step.modal.absolute)
-        writer = self._writers.get(key)
-        if writer is None:
-            writer = self._writers[key] = Writer(self._grid(step), self.settings.system, step.modal.absolute)
-        return writer
-
     def _tolerance(self, step: Step) -> float:
         if self.settings.tolerance is not None:
             return self.settings.tolerance
@@ -516,7 +508,7 @@ class Rewriter:
                     and not any(_group(value, self.settings.system) == G.ONE_SHOT for value in codes)
                 )
             if relies and self.mode_now is not None and before is not None and self.mode_now != before:
-                writer = self._writer(step)
+                writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
                 yield with_motion_code(block, writer.code(before, Style.of(block)))
                 self.mode_now = before
                 return
@@ -527,7 +519,7 @@ class Rewriter:
             return
         cuts = self._cuts(entry)
         self._within_limits(step, cuts)
-        writer = self._writer(step)
+        writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
         lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
         self._self_check(entry, lines, cuts)
         self._follow_contour(step, cuts)

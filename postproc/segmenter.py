@@ -65,9 +65,8 @@ class Target:
     @cached_property
     def bend(self) -> float:
         """How far the displacement departs from changing linearly along the move, mm."""
-        d = self.d
-        linear = d[0] + self.t[:, None] * (d[-1] - d[0])
-        return float(np.abs(d - linear).max())
+        measure_bends([self])
+        return self.__dict__["bend"]
 
     @property
     def start(self) -> tuple[float, float]:
