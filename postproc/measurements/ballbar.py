@@ -15,6 +15,7 @@ nothing else. ``centered = true`` skips that removal.
 
 from __future__ import annotations
 
+import datetime as dt
 import math
 from dataclasses import dataclass, field
 
@@ -43,6 +44,7 @@ class BallbarTrace:
     feed: float | None = None
     raw: bool = False
     extras: dict[str, str] = field(default_factory=dict)
+    measured: dt.datetime | None = None  #: when the trace was measured, if the file says
 
     @property
     def cw(self) -> bool:
@@ -169,7 +171,8 @@ def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6
         setup = centre_offset(angles, deviations)
         theta = np.radians(angles)
         deviations = deviations - setup[0] * np.cos(theta) - setup[1] * np.sin(theta)
-    return BallbarTrace(path, radius, direction, centre, angles, deviations, setup, centered, feed, raw, table.extras)
+    return BallbarTrace(path, radius, direction, centre, angles, deviations, setup, centered, feed, raw, table.extras,
+                        table.measured)
 
 
 def pair(traces: list[BallbarTrace]) -> tuple[BallbarTrace, BallbarTrace]:
