@@ -1,4 +1,5 @@
-"""Ballbar traces: reading both forms of formats.md and the processing of methods.md 3.
+"""Ballbar traces: reading both forms of docs/formats.md §4 and the processing of
+docs/methods.md §3.1-§3.2.
 
 A trace is the radial deviation (bar length minus nominal radius; positive outside the
 circle) against theta about the test centre, in one direction of travel: ``ccw`` is the
@@ -102,7 +103,7 @@ def average(values: np.ndarray, group: int) -> tuple[np.ndarray, int]:
 
 
 def raw_angles(count: int, start: float, capture: float, cw: bool) -> np.ndarray:
-    """Angles of evenly spaced raw samples: sample i at start + s i capture / n (formats.md)."""
+    """Angles of evenly spaced raw samples: sample i at start + s i capture / n (docs/formats.md §4)."""
     sign = 1.0 if cw else -1.0
     return start + sign * np.arange(count) * capture / count
 

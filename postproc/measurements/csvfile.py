@@ -1,4 +1,4 @@
-"""The common shape of postproc's measurement files (formats.md, "Header lines").
+"""The common shape of postproc's measurement files (docs/formats.md §3).
 
 A magic line, ``# key = value`` header lines, one CSV header row, then data rows. Unknown
 header keys are refused (a misspelt optional key must not fall back to its default) except

@@ -1,8 +1,8 @@
-"""Probe files and probe calibrations on an artifact (formats.md).
+"""Probe files and probe calibrations on an artifact (docs/formats.md §5, §6).
 
 Each row is the stylus-centre position C the control reported at the trigger and the unit
 direction n in which the probe travelled (into the material). The touched point is
-``P = C + (R_stylus + k(n)) n`` with ``k`` from a calibration (methods.md 9).
+``P = C + (R_stylus + k(n)) n`` with ``k`` from a calibration (docs/methods.md §9.1).
 
 Directions are named by ``theta``, the angle of the outward surface normal ``-n`` in the
 project's convention (from +X towards +Z): a touch straight down on a pole has theta = 90,
@@ -71,7 +71,7 @@ class CalibrationRun(Touches):
     artifact_centre: tuple[float, float] = (0.0, 0.0)
 
     def factors(self) -> np.ndarray:
-        """k at each touch: measured radius minus artifact radius (methods.md 9, eq. 4.4-4.5)."""
+        """k at each touch: measured radius minus artifact radius (docs/methods.md §9.2, eq. 4.4-4.5)."""
         measured = np.hypot(self.centres[:, 0] - self.artifact_centre[0], self.centres[:, 1] - self.artifact_centre[1])
         return measured - self.stylus_radius - self.artifact_radius
 
