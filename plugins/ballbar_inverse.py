@@ -17,7 +17,7 @@ MAPPINGS = ("absolute", "relative", "center-offset")
 
 
 class BallbarInverse(Compensator):
-    """Invert a ballbar trace about the nominal on every feed arc (methods.md 4 and 6).
+    """Invert a ballbar trace about the nominal on every feed arc (docs/methods.md §4, §6).
 
     What it corrects: the radial error the ballbar saw, at each angle, on arcs cut with
     the same motion: every G02/G03 feed arc takes ``-e(theta)`` along its radius, theta
@@ -30,7 +30,7 @@ class BallbarInverse(Compensator):
 
     Options:
 
-    - ``radius-mapping=absolute|relative|center-offset`` (methods.md 6): ``absolute`` applies
+    - ``radius-mapping=absolute|relative|center-offset`` (docs/methods.md §6): ``absolute`` applies
       the error of the same angle (eq. 6.3), ``relative`` scales it by the arc's radius over
       the trace's (eq. 6.4), ``center-offset`` keeps only a translation: the trace over the
       arc's span is fitted as a circle of the nominal radius, and the arc's centre moves by

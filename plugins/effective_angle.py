@@ -49,7 +49,7 @@ def tables(ccw: BallbarTrace, cw: BallbarTrace) -> dict[str, tuple[np.ndarray, n
 
 
 class EffectiveAngle(ErrorFunctions):
-    """Tabulate per-axis errors from a CCW and a CW ballbar trace; correct every feed move (methods.md 7).
+    """Tabulate per-axis errors from a CCW and a CW ballbar trace; correct every feed move (docs/methods.md §7.1).
 
     What it corrects: the machine's position errors by axis, read off the ballbar with the
     effective-angle assumption (eq. 6.7-6.10): the reading at theta came from the command at

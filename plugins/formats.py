@@ -1,4 +1,4 @@
-"""The measurement formats of formats.md, registered as every shop's reader would be.
+"""The measurement formats of docs/formats.md §3-§6, registered as every shop's reader would be.
 
 They come last and accept any file, so that a file no shop reader takes gets the
 built-in reader's exact message (wrong magic line, empty, binary, UTF-16...).

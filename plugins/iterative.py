@@ -46,7 +46,7 @@ class Summed:
 
 
 class Iterative(BallbarInverse):
-    """Invert the sum of the residuals of iterations 1..N (methods.md 5, eq. 6.2).
+    """Invert the sum of the residuals of iterations 1..N (docs/methods.md §5, eq. 6.2).
 
     What it corrects: what ``ballbar-inverse`` corrects, iteratively. Iteration 1 is the
     original trace; each later trace is measured on the path the previous iteration

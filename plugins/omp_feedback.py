@@ -124,7 +124,7 @@ class Stretch:
 
 
 class OmpFeedback(Compensator):
-    """Reflect the profile about the nominal by the error an earlier pass left (methods.md 9, 4).
+    """Reflect the profile about the nominal by the error an earlier pass left (docs/methods.md §9.6).
 
     What it corrects: everything that put the surface of an earlier pass of the same profile
     where it is: machine errors, tool setting, cutting deflection, as the on-machine probe
@@ -140,7 +140,7 @@ class OmpFeedback(Compensator):
     warning). When the file has a datum probed before and after, a datum that moved by more
     than ``repeatability_mm`` refuses the run (exit 4; ``--force`` uses the points anyway).
     The nub at the pole and stray touches are dropped and replaced by the trend of their
-    neighbours (methods.md 9): each is warned about and listed in the report, with the four
+    neighbours (docs/methods.md §9.5): each is warned about and listed in the report, with the four
     figures of the error as measured and as cleaned.
 
     Options: ``stock=MM`` (default 0): how far outside this program's profile the earlier

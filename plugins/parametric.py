@@ -158,7 +158,7 @@ def unit_errors(u, w, dx, dz, tx=0.0) -> dict[str, tuple[np.ndarray, np.ndarray]
 
 
 class Parametric(ErrorFunctions):
-    """Fit per-axis error functions to a CCW and a CW ballbar trace; correct every feed move (methods.md 7).
+    """Fit per-axis error functions to a CCW and a CW ballbar trace; correct every feed move (docs/methods.md §7.2).
 
     What it corrects: the machine's position errors by axis, wherever the tool goes (lines
     and arcs of any radius). With (u, w) = (x - xc, z - zc) about the test centre and each

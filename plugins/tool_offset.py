@@ -21,7 +21,7 @@ RESIDUAL_FACTOR = 3.0  #: the default tolerance is this many times the probe fil
 
 
 class ToolOffset(OmpFeedback):
-    """Find the tool-setting error from the part and take it out (methods.md 10, eq. 5.1-5.2).
+    """Find the tool-setting error from the part and take it out (docs/methods.md §10, eq. 5.1-5.2).
 
     What it corrects: a tool set wrongly, which translates the whole profile it cuts. The
     nominal profile the touches lie on (one chain of connected feed moves, lines and arcs,

@@ -1,12 +1,12 @@
 """What a ballbar test says about the machine: ISO 230-4 figures and a parametric diagnosis.
 
-Conventions (methods.md 2): theta about the test centre (xc, zc) from +X towards +Z; ``cw``
+Conventions (docs/methods.md §2): theta about the test centre (xc, zc) from +X towards +Z; ``cw``
 (G02) runs with theta increasing, ``ccw`` (G03) with theta decreasing; a deviation is bar
 length minus nominal radius, positive outside the circle. Deviations are small against the
 radius, so everything here is first order in deviation / radius, as the reader's centre
 removal is (the neglected terms are below 0.01 um for a 60 um set-up offset at 100 mm).
 
-ISO 230-4 figures, all in mm:
+ISO 230-4 figures (docs/methods.md §3.3), all in mm:
 
 - G, circular deviation per direction: max - min of the deviation about the trace's own
   least-squares circle (its constant and first harmonic removed).
@@ -20,7 +20,7 @@ ISO 230-4 figures, all in mm:
   centre of G(b), each interpolated (linearly) at the other's angles where it has samples
   no more than MAX_GAP_DEG apart.
 
-Parametric diagnosis: a linear least-squares fit to both traces as measured (set-up centres
+Parametric diagnosis (docs/methods.md §3.4): a linear least-squares fit to both traces as measured (set-up centres
 added back) of the per-axis errors, origin at the test centre, v the commanded velocity:
 
     e_x = a_x (x - xc) + s (z - zc) - (b_x / 2) sign(v_x) - m v_x / |v|
@@ -66,7 +66,7 @@ class DirectionFigures:
     circular_deviation: float  #: G, mm
     radial_min: float  #: F, smallest deviation, mm
     radial_max: float  #: F, largest deviation, mm
-    figures: Figures  #: the four figures of the processed trace (methods.md 12), um
+    figures: Figures  #: the four figures of the processed trace (docs/methods.md §12), um
 
 
 @dataclass(frozen=True, slots=True)

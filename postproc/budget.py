@@ -1,4 +1,4 @@
-"""Error budgets (methods.md 11; the dissertation's 2.2.2, 5.4, Tables 5.1 and 5.2).
+"""Error budgets (docs/methods.md §11; the dissertation's sections 2.2.2 and 5.4, Tables 5.1 and 5.2).
 
 Each error source has a peak-to-valley amplitude per axis and a distribution. A length-based
 source is given in micrometres per millimetre and multiplied by the travel. Per axis,

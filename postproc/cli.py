@@ -1,4 +1,4 @@
-"""The ``postproc`` command line (formats.md, "Command line"). Thin: it parses options,
+"""The ``postproc`` command line (docs/formats.md §7, §8). Thin: it parses options,
 calls the library and turns errors into messages and exit codes.
 
 Only the program (or the CSV, or the report asked for) goes to stdout; every message goes

@@ -135,7 +135,7 @@ class Compensator:
 
 
 def parse_options(texts: Iterable[str], compensators: list[type[Compensator]]) -> dict[str, dict[str, Any]]:
-    """``[PLUGIN.]KEY=VALUE`` texts scoped to the selected compensators (formats.md)."""
+    """``[PLUGIN.]KEY=VALUE`` texts scoped to the selected compensators (docs/formats.md §8.1)."""
     chosen: dict[str, dict[str, Any]] = {cls.name: {} for cls in compensators}
     by_name = {cls.name: cls for cls in compensators}
     for text in texts:

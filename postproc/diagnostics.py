@@ -1,6 +1,6 @@
 """Errors, warnings, their message forms and the exit codes: the one place that defines them.
 
-Message forms (formats.md, "Command line"):
+Message forms (docs/formats.md §7.2, and §7.3 for the exit codes):
 
 - ``FILE:LINE:COL: error: message`` for a program, followed by the source line and a caret;
 - ``FILE:LINE: error: message`` for a data row or header line of a measurement file;

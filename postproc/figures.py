@@ -1,4 +1,4 @@
-"""The four figures every report, test and benchmark quotes (methods.md 12).
+"""The four figures every report, test and benchmark quotes (docs/methods.md §12).
 
 Mean, mean absolute, RMS and standard deviation (population form, ddof = 0) of the
 radial deviations from nominal, in micrometres.

@@ -1,6 +1,6 @@
 """Plane geometry in radius coordinates (x, z): lines, arcs and profiles made of them.
 
-Conventions (formats.md): ``theta`` about a centre is measured from +X towards +Z,
+Conventions (docs/formats.md §1): ``theta`` about a centre is measured from +X towards +Z,
 ``x = xc + r cos(theta)``, ``z = zc + r sin(theta)``; an arc's ``sweep`` is signed, positive
 for G02 (theta increasing, ``cw``) and negative for G03. Batches of points are numpy arrays
 of shape (n, 2) holding (x, z) rows; a parameter ``t`` runs from 0 at a segment's start to 1

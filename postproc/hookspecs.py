@@ -42,7 +42,7 @@ def postproc_measurement_readers() -> list[MeasurementReader]:
     (``ballbar``, ``probe`` or ``calibration``), says whether it ``accepts`` a file (by its
     first bytes, not only its name) and ``read``s it into the same objects the built-in
     readers make. The first reader that accepts a file reads it; the built-in readers of
-    formats.md are registered through this hook too, after every other plugin's.
+    docs/formats.md §3-§6 are registered through this hook too, after every other plugin's.
 
     :returns: a list of readers; every implementation's lists are joined.
     """

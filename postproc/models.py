@@ -28,10 +28,14 @@ def _canonical(payload: dict[str, Any]) -> bytes:
     return json.dumps(payload, sort_keys=True, separators=(",", ":"), allow_nan=False).encode()
 
 
-def measured_at(paths: list[str]) -> str:
-    """When the measurements were made, as far as the files tell: the newest of their times."""
-    times = [os.path.getmtime(path) for path in paths if os.path.exists(path)]
-    moment = dt.datetime.fromtimestamp(max(times) if times else 0.0, dt.timezone.utc)
+def measured_at(paths: list[str], stated: list[dt.datetime] | None = None) -> str:
+    """When the measurements were made, in UTC: the newest of the times the files state (their
+    ``measured`` key) or, when none states one, the newest of the files' modification times."""
+    if stated:
+        moment = max(stated).astimezone(dt.timezone.utc)
+    else:
+        times = [os.path.getmtime(path) for path in paths if os.path.exists(path)]
+        moment = dt.datetime.fromtimestamp(max(times) if times else 0.0, dt.timezone.utc)
     return moment.replace(microsecond=0).isoformat()
 
 

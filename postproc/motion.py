@@ -1,6 +1,6 @@
 """The motion IR: what the interpreter makes of the blocks.
 
-Conventions (formats.md): radius coordinates ``x`` (program X / 2 in diameter mode) and
+Conventions (docs/formats.md §1): radius coordinates ``x`` (program X / 2 in diameter mode) and
 ``z``, in millimetres whatever the program's units, in the active work coordinate system.
 About an arc centre ``(xc, zc)``, ``theta`` is measured from +X towards +Z:
 ``x = xc + r cos(theta)``, ``z = zc + r sin(theta)``; G02 (``cw``) runs with theta

@@ -1,4 +1,4 @@
-"""``postproc path``: the interpreted tool path as CSV (formats.md).
+"""``postproc path``: the interpreted tool path as CSV (docs/formats.md §10).
 
 One row per motion in radius millimetres of the active work coordinate system, six
 decimals; centre and direction only for arcs; an unknown coordinate is an empty cell.

@@ -58,6 +58,7 @@ class Pipeline:
         self.max_correction = request.max_correction or profile.max_correction
         context = Context(profile, self.reporter, request.tolerance or profile.default_tolerance(False), request.force)
         self.inputs: list[tuple[str, str]] = []  # (file, sha256) for the provenance
+        self.stated: list = []  # the measurement times the files state (their ``measured`` key)
         if request.model:
             self._load(request.model, context)
             return
@@ -94,7 +95,7 @@ class Pipeline:
         model = self._guarded(compensator, "model", compensator.model)
         paths = [path for path, _ in self.inputs]
         return models.build(compensator.name, item.version, model, self.inputs, self.profile.name,
-                            self.settings[compensator.name], note, models.measured_at(paths))
+                            self.settings[compensator.name], note, models.measured_at(paths, self.stated))
 
     # ------------------------------------------------------------------ measurements
 
@@ -111,6 +112,8 @@ class Pipeline:
         read = {kind: [read_measurement(path, kind, readers, context) for path in files] for kind, files in given.items()}
         for kind, files in given.items():
             self.inputs += [(path, digest(path)) for path in files]
+        self.stated = [moment for found in read.values() for item in found
+                       if (moment := getattr(item, "measured", None)) is not None]
         for compensator in self.compensators:
             measurements = Measurements(**{kind: list(read[kind]) if kind in compensator.takes else [] for kind in read})
             missing = [kind for kind in compensator.needs if not getattr(measurements, kind)]

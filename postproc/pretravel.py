@@ -1,4 +1,4 @@
-"""Probe pretravel as a smooth function of the approach direction (methods.md 9, chapter 4).
+"""Probe pretravel as a smooth function of the approach direction (docs/methods.md §9.2; the dissertation's chapter 4).
 
 A calibration run on the sphere artifact gives at each touch ``k = R_measured - R_artifact``.
 The source fitted a 1st-order polynomial over one half of the sphere and a 2nd-order one over

@@ -3,9 +3,9 @@
 The program touches N points spread evenly (in arc length) along the nominal profile (the
 profile and its material side as ``postproc simulate probe`` picks them,
 :mod:`postproc.simulator.nominal`; ``inset`` keeps the touches that far from both ends of the
-stretch), and optionally a datum before and after them (methods.md 9, the stability check).
-Each touch, with n the outward normal of the nominal surface at its point Q, R the stylus
-radius and c the clearance:
+stretch), and optionally a datum before and after them (docs/methods.md §9.3, the stability
+check); docs/methods.md §9.7 is the method. Each touch, with n the outward normal of the nominal
+surface at its point Q, R the stylus radius and c the clearance:
 
 1. the route to its approach start ``A = Q + (R + c) n`` (:mod:`postproc.probe_route`: near
    the part at the travel feed, along the envelope at rapid);

@@ -3,7 +3,7 @@
 The probing program (:mod:`postproc.probe_cycle`) prints one line per record with ``DPRNT``
 between ``POPEN`` and ``PCLOS``; the control sends them through its RS-232 port or onto its
 memory card. This module is the one place that defines those lines: it writes the ``DPRNT``
-statements and reads the lines back. Format 1, one run per file:
+statements and reads the lines back (docs/formats.md §16). Format 1, one run per file:
 
     POSTPROC PROBE V 1 O 8100 G 21 D 2 R   3.0000 N  36      header: format version, program number,
                                                              G20/G21 units, X divisor (2: X is a
@@ -315,7 +315,7 @@ def _datum_axes(path: str, before: list[Reading], after: list[Reading], ended: i
 
 @dataclass(frozen=True)
 class ProbeData:
-    """What a probe file of formats.md holds, in radius millimetres."""
+    """What a probe file (docs/formats.md §5) holds, in radius millimetres."""
 
     stylus_radius: float
     centres: np.ndarray  #: (n, 2) reported stylus centres x, z
@@ -364,7 +364,7 @@ def _mm(value: float) -> str:
 
 
 def probe_file_text(data: ProbeData, provenance: dict[str, object]) -> str:
-    """The probe file (formats.md, "Probe points"); provenance goes into ``x-`` keys."""
+    """The probe file (docs/formats.md §5); provenance goes into ``x-`` keys."""
     lines = [PROBE_MAGIC, f"# stylus_radius_mm = {data.stylus_radius:.10g}"]
     for axis in sorted(data.datum_before):
         lines.append(f"# datum_before_{axis}_mm = {_mm(data.datum_before[axis])}")

@@ -1,4 +1,4 @@
-"""From a probe file to deviations from the nominal profile (methods.md 9): what the probe
+"""From a probe file to deviations from the nominal profile (docs/methods.md §9): what the probe
 compensators (``omp-feedback``, ``tool-offset``) build on.
 
 1. the touched points ``P = C + (R_stylus + k(n)) n``, with ``k`` from a calibration model
@@ -48,7 +48,7 @@ def touched_points(touches: Touches, calibration: CalibrationModel | None = None
 
 
 def check_datum(probe: ProbeFile, force: bool = False, reporter: Reporter | None = None) -> list[str]:
-    """The stability check (methods.md 9, Figure 6.14): notes for the report.
+    """The stability check (docs/methods.md §9.3, Figure 6.14): notes for the report.
 
     :raises SafetyError: when the datum moved by more than ``repeatability_mm`` on an axis,
         unless ``force`` (then ``reporter`` is warned).

@@ -40,7 +40,7 @@ class MachineProfile:
     nose_radius_mm: float = 0.4  #: no block under G41/G42 shorter than this (the interference check)
     x_limits: tuple[float, float] | None = None  #: soft limits of x (radius mm, work coordinates); None: not set
     z_limits: tuple[float, float] | None = None  #: soft limits of z (mm, work coordinates)
-    tolerance: float | None = None  #: default tolerance; None: formats.md's rule
+    tolerance: float | None = None  #: default tolerance; None: the rule of docs/formats.md §8.1
     max_correction: float = 0.1  #: largest correction allowed anywhere
     model_max_age_days: float = 30.0  #: a saved model measured longer ago than this gets a warning
     plugin_time_limit_s: float = 60.0  #: a compensator call that runs longer is stopped and named
@@ -59,7 +59,7 @@ class MachineProfile:
         return 10.0**-decimals * (25.4 if inch else 1.0)
 
     def default_tolerance(self, inch: bool) -> float:
-        """formats.md: 0.001 mm, or twice the output resolution where that is larger.
+        """docs/formats.md §8.1: 0.001 mm, or twice the output resolution where that is larger.
 
         An inch program written to 0.0001 in (2.54 um) cannot be held to 1 um, so it gets
         0.00508 mm. A metric program written to 0.001 mm can: the segmenter picks, among the

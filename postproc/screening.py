@@ -1,4 +1,5 @@
-"""Robust screening of probe deviations: outliers, and the nub at the pole (methods.md 9, 7.5.1).
+"""Robust screening of probe deviations: outliers, and the nub at the pole (docs/methods.md §9.5;
+the dissertation's section 7.5.1).
 
 When the tool sits slightly off the Y = 0 plane it leaves a nub on the spindle axis, and the
 pole reads up to +0.02 mm high. Such a reading says nothing about the rest of the path and

@@ -695,7 +695,7 @@ class PlanError(ValueError):
 
 
 def chord_minimum(radius: float, sweep: float, tolerance: float) -> int:
-    """The fewest straddling chords over ``sweep`` radians of a circle (methods.md 4)."""
+    """The fewest straddling chords over ``sweep`` radians of a circle (docs/methods.md §13)."""
     step = 2.0 * math.acos((radius - tolerance) / (radius + tolerance))
     return math.ceil(abs(sweep) / step)
 

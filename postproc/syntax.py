@@ -1,7 +1,8 @@
 """The grammar path: one line through ``grammars/fanuc.lark`` into a :class:`~postproc.blocks.Block`.
 
 The Lark parser is built once per process, in memory, from the grammar shipped inside
-the package. No Lark exception leaves this module: a line the grammar refuses becomes a
+the package (or, in a clone that was never installed, from the clone's ``grammars/``). No
+Lark exception leaves this module: a line the grammar refuses becomes a
 :class:`~postproc.diagnostics.ProgramSyntaxError` with the line, the column and, where
 the mistake is a common one, the FANUC alarm it would raise.
 """
@@ -11,6 +12,7 @@ from __future__ import annotations
 import functools
 import importlib.resources
 import re
+from pathlib import Path
 
 from lark import Lark, Token, Tree
 from lark.exceptions import LarkError, UnexpectedCharacters, UnexpectedEOF, UnexpectedToken
@@ -23,8 +25,18 @@ from .diagnostics import Location, ProgramSyntaxError
 @functools.lru_cache(maxsize=1)
 def parser() -> Lark:
     """The LALR parser of ``fanuc.lark``, built on first use."""
-    grammar = importlib.resources.files("postproc.grammars").joinpath("fanuc.lark").read_text("utf-8")
-    return Lark(grammar, parser="lalr", lexer="contextual", keep_all_tokens=True)
+    return Lark(grammar_text(), parser="lalr", lexer="contextual", keep_all_tokens=True)
+
+
+def grammar_text() -> str:
+    """``fanuc.lark`` as installed (the package ``postproc.grammars``, which the build maps from
+    the top-level ``grammars/``), or from ``grammars/`` beside the package when postproc is
+    imported from a clone that was never installed: the same file either way."""
+    try:
+        grammar = importlib.resources.files("postproc.grammars")
+    except ModuleNotFoundError:
+        grammar = Path(__file__).resolve().parent.parent / "grammars"
+    return grammar.joinpath("fanuc.lark").read_text("utf-8")
 
 
 class _LineSyntaxError(Exception):

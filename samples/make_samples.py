@@ -47,7 +47,7 @@ Try them:
         --calibration samples/probe/artifact-calibration.csv
     postproc simulate inspect {program} --machine {machine} --from-line {line} --to-line {line}
 
-The pole reads about 20 um high in the probe file: that is the nub (methods.md 9), which the
+The pole reads about 20 um high in the probe file: that is the nub (docs/methods.md §9.5), which the
 probe compensators must screen out.
 """
 

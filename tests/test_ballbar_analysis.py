@@ -97,7 +97,7 @@ def test_hysteresis_interpolates_between_the_other_traces_samples(tmp_path):
 
 @dataclass(frozen=True)
 class Machine:
-    """Per-axis errors of a two-axis lathe (methods.md 8) plus squareness and servo lag."""
+    """Per-axis errors of a two-axis lathe (docs/methods.md §8) plus squareness and servo lag."""
 
     scaling_x: float = 40e-6
     scaling_z: float = -30e-6

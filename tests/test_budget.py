@@ -1,4 +1,4 @@
-"""Error budgets: the arithmetic of methods.md 11, the file's checks, and ``postproc budget``."""
+"""Error budgets: the arithmetic of docs/methods.md §11, the file's checks, and ``postproc budget``."""
 
 from __future__ import annotations
 

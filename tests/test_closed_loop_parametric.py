@@ -1,6 +1,6 @@
 """parametric and effective-angle: fitted error functions, their rules, and the closed loop of Table 6.7.
 
-The closed loop is the dissertation's simulation (methods.md 8, Table 6.7): a virtual machine
+The closed loop is the dissertation's simulation (docs/methods.md §8, §7.3, Table 6.7): a virtual machine
 with per-axis scaling (zero at the work origin), backlash and a 12 mm-pitch term an order of
 magnitude smaller; a 100 mm ballbar test, CCW and CW, about the work origin; the 57.15 mm
 hemishell arc cut uncompensated and compensated by each method, and inspected by the virtual
@@ -35,7 +35,7 @@ CCW, CW = (str(SAMPLES / "ballbar" / f"v40r-100-{d}.csv") for d in ("ccw", "cw")
 R_CUT = 57.15
 PLUGINS = {"parametric": Parametric, "effective-angle": EffectiveAngle}
 
-# Table 6.6's values are lost (methods.md 8); these give the uncompensated hemishell Table 6.7's
+# Table 6.6's values are lost (docs/methods.md §8); these give the uncompensated hemishell Table 6.7's
 # sigma of about 4 um. Scaling of +60 and +150 ppm about the work origin, backlash 8 and 6 um,
 # a pitch term of 0.8 and 0.6 um; a set-up offset of tens of um and 0.3 um of bar noise.
 MACHINE = """name = "table-6.7"

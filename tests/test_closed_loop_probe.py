@@ -1,8 +1,9 @@
 """Closed loop with the on-machine probe: cut on the virtual lathe, probe, compensate through the
-command line, cut again, inspect with the virtual CMM (methods.md 9, 10; dissertation 6.4, 7.5).
+command line, cut again, inspect with the virtual CMM (docs/methods.md §9, §10;
+the dissertation's sections 6.4 and 7.5).
 
 The virtual V40R of the samples (seeded) stands in for the machine. Figures are the four of
-methods.md 12; the CMM point at the pole lands on the nub, which no path can reach (the tool
+docs/methods.md §12; the CMM point at the pole lands on the nub, which no path can reach (the tool
 never gets to the axis), so the figures are taken over the points off the axis, as the source
 read its profiles ("neglecting the pole").
 """

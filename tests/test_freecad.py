@@ -107,7 +107,7 @@ json.dump(result, open(spec["result"], "w"))
 
 
 def _trace(path: Path, step_deg: float) -> Path:
-    """A CCW trace of the hemishell's radius reading +0.01 mm everywhere (formats.md, processed form)."""
+    """A CCW trace of the hemishell's radius reading +0.01 mm everywhere (docs/formats.md §4, processed form)."""
     rows = [f"{i * step_deg:.1f},0.01" for i in range(round(360 / step_deg))]
     path.write_text("# postproc ballbar 1\n# radius_mm = 57.15\n# direction = ccw\nangle_deg,deviation_mm\n"
                     + "\n".join(rows) + "\n")

@@ -72,3 +72,24 @@ def test_a_model_carries_its_own_compensator_and_options(run, tmp_path):
     run(*FIT, "-o", str(model))
     result = run("compensate", HEMISHELL, "--model", str(model), "--plugin", "iterative")
     assert result.exit_code == 2 and "--model carries its compensator" in result.stderr
+
+
+def test_a_model_is_dated_by_the_measured_key_of_its_files(run, tmp_path):
+    """Every measurement format takes ``measured`` (ISO 8601 with a zone); the model keeps the newest, in UTC."""
+    stamped = []
+    for path, moment in ((CCW, "2026-11-20T14:05:00+01:00"), (CW, "2026-11-20T14:35:00+01:00")):
+        lines = open(path).read().splitlines(keepends=True)
+        copy = tmp_path / path.rsplit("/", 1)[-1]
+        copy.write_text(lines[0] + f"# measured = {moment}\n" + "".join(lines[1:]))
+        stamped.append(str(copy))
+    model = tmp_path / "model.json"
+    fitted = run("fit", "--plugin", "parametric", "--ballbar", stamped[0], "--ballbar", stamped[1], "-o", str(model))
+    assert fitted.exit_code == 0, fitted.stderr
+    assert json.loads(model.read_text())["measured"] == "2026-11-20T13:35:00+00:00"
+    for name in ("probe/hemishell-pass1.csv", "probe/artifact-calibration.csv"):
+        lines = (SAMPLES / name).read_text().splitlines(keepends=True)
+        probe = tmp_path / name.rsplit("/", 1)[-1]
+        probe.write_text(lines[0] + "# measured = 2026-11-21T08:00:00Z\n" + "".join(lines[1:]))
+    result = run("compensate", HEMISHELL, "--plugin", "tool-offset", "--probe", str(tmp_path / "hemishell-pass1.csv"),
+                 "--calibration", str(tmp_path / "artifact-calibration.csv"))
+    assert result.exit_code == 0, result.stderr

@@ -1,7 +1,7 @@
 """``postproc ballbar FILE... [--json] [--plot FILE]``: ISO 230-4 figures and error diagnosis of traces.
 
 One trace, or the ccw and the cw trace of one test. A human-readable report goes to stdout,
-or with ``--json`` exactly one JSON object: the keys of formats.md plus
+or with ``--json`` exactly one JSON object: the keys of docs/formats.md §11 plus
 ``bidirectional_circular_deviation_mm``, ``servo_mismatch_mm`` and ``servo_lag_ms`` (X behind Z;
 the lag needs the feed in both headers), ``apparent_squareness_rad`` (one trace only),
 ``setup_center_mm`` (the centre the reader removed from each trace), ``trace_figures_um`` and

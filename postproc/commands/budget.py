@@ -1,4 +1,4 @@
-"""``postproc budget FILE.toml [--json]``: combine an error budget (methods.md 11).
+"""``postproc budget FILE.toml [--json]``: combine an error budget (docs/methods.md §11).
 
 Per axis: the PV sum, the RSS of the RMS values and their average, for each group of sources
 and for all of them, as a table in micrometres on stdout, or with ``--json`` one JSON object in

@@ -1,6 +1,6 @@
 """``postproc inspect PROGRAM --probe FILE --band MM``: in tolerance, or re-cut with compensation?
 
-The question the source's loop asks after each on-machine inspection (methods.md 9: cut,
+The question the source's loop asks after each on-machine inspection (docs/methods.md §9.8: cut,
 inspect with the probe, are the errors acceptable?). The probe file is read against the
 nominal profile of PROGRAM (its first chain of feed moves, or the moves of ``--from-line``
 to ``--to-line``, as ``postproc simulate`` picks it) through :func:`postproc.probing.probe_profile`:

@@ -2,8 +2,8 @@
 
 The printout is what the control sent through its RS-232 port or wrote to its memory card
 while the program of ``postproc probe-program`` ran (``-``: standard input); its format and
-what the reader tolerates: :mod:`postproc.probe_printout`. The probe file (formats.md, "Probe
-points": stylus centres in radius mm, unit approach vectors, the datum keys) goes to ``-o
+what the reader tolerates: :mod:`postproc.probe_printout`. The probe file (docs/formats.md
+§5: stylus centres in radius mm, unit approach vectors, the datum keys) goes to ``-o
 FILE`` or stdout, written atomically; a line that is not a record of the printout is refused
 with its line number (exit 3) and nothing is written.
 """
@@ -26,7 +26,7 @@ from ..probe_printout import probe_data, probe_file_text, read_printout
 @click.option("--stylus-radius", type=float, metavar="MM",
               help="The stylus radius the probe file names (default: the one the program was written for).")
 @click.option("--repeatability", type=float, default=0.003, show_default=True, metavar="MM",
-              help="The machine's repeatability: the datum check's limit (methods.md 1: X +-0.003 mm).")
+              help="The machine's repeatability: the datum check's limit (docs/methods.md §1: X +-0.003 mm).")
 @click.option("-o", "--output", "output", default=STDOUT, metavar="FILE", help="Write the probe file here.")
 def command(printout, stylus_radius, repeatability, output):
     """Turn the DPRNT printout of a postproc probing program into a probe file."""

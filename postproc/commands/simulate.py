@@ -1,6 +1,6 @@
 """``postproc simulate ballbar|cut|probe|calibrate|inspect``: the virtual lathe on the command line.
 
-Each subcommand writes one file in its formats.md form (the surface of ``cut`` in postproc's
+Each subcommand writes one file in its docs/formats.md form (the surface of ``cut`` in postproc's
 own form) to ``-o FILE`` or stdout; ``inspect`` prints the four figures, or with ``--json`` one
 JSON object with them and the deviation at each point. The machine, probe and set-up come
 from the ``[simulation]`` table of ``--machine FILE.toml`` (none: a perfect machine); options
@@ -74,7 +74,7 @@ def _surface(path, simulation, moves, profile_of):
 
 @click.group("simulate")
 def command() -> None:
-    """The virtual lathe: ballbar tests, cuts, probing and inspection (methods.md 8)."""
+    """The virtual lathe: ballbar tests, cuts, probing and inspection (docs/methods.md §8)."""
 
 
 @command.command("ballbar")
@@ -89,7 +89,7 @@ def command() -> None:
 @click.option("--feed", type=float, metavar="MM/MIN", help="Feed (default: the table's).")
 @_output
 def ballbar(machine, seed, direction, form, radius, center_x, center_z, feed, output):
-    """A ballbar trace: the 720 deg test of methods.md 3 in one direction."""
+    """A ballbar trace: the 720 deg test of docs/methods.md §3.1 in one direction."""
     simulation, _ = load(machine)
     seed = simulation.seed if seed is None else seed
     centre = None

@@ -1,1 +1,1 @@
-"""Measurements: ballbar traces, probe points and probe calibrations (formats.md)."""
+"""Measurements: ballbar traces, probe points and probe calibrations (docs/formats.md §3-§6)."""

@@ -1,4 +1,5 @@
-"""Ballbar traces: reading both forms of formats.md and the processing of methods.md 3.
+"""Ballbar traces: reading both forms of docs/formats.md §4 and the processing of
+docs/methods.md §3.1-§3.2.
 
 A trace is the radial deviation (bar length minus nominal radius; positive outside the
 circle) against theta about the test centre, in one direction of travel: ``ccw`` is the
@@ -15,6 +16,7 @@ nothing else. ``centered = true`` skips that removal.
 
 from __future__ import annotations
 
+import datetime as dt
 import math
 from dataclasses import dataclass, field
 
@@ -43,6 +45,7 @@ class BallbarTrace:
     feed: float | None = None
     raw: bool = False
     extras: dict[str, str] = field(default_factory=dict)
+    measured: dt.datetime | None = None  #: when the trace was measured, if the file says
 
     @property
     def cw(self) -> bool:
@@ -100,7 +103,7 @@ def average(values: np.ndarray, group: int) -> tuple[np.ndarray, int]:
 
 
 def raw_angles(count: int, start: float, capture: float, cw: bool) -> np.ndarray:
-    """Angles of evenly spaced raw samples: sample i at start + s i capture / n (formats.md)."""
+    """Angles of evenly spaced raw samples: sample i at start + s i capture / n (docs/formats.md §4)."""
     sign = 1.0 if cw else -1.0
     return start + sign * np.arange(count) * capture / count
 
@@ -169,7 +172,8 @@ def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6
         setup = centre_offset(angles, deviations)
         theta = np.radians(angles)
         deviations = deviations - setup[0] * np.cos(theta) - setup[1] * np.sin(theta)
-    return BallbarTrace(path, radius, direction, centre, angles, deviations, setup, centered, feed, raw, table.extras)
+    return BallbarTrace(path, radius, direction, centre, angles, deviations, setup, centered, feed, raw, table.extras,
+                        table.measured)
 
 
 def pair(traces: list[BallbarTrace]) -> tuple[BallbarTrace, BallbarTrace]:

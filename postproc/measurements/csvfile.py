@@ -1,13 +1,15 @@
-"""The common shape of postproc's measurement files (formats.md, "Header lines").
+"""The common shape of postproc's measurement files (docs/formats.md §3).
 
 A magic line, ``# key = value`` header lines, one CSV header row, then data rows. Unknown
 header keys are refused (a misspelt optional key must not fall back to its default) except
-``x-`` keys, which are kept. Every problem is a MeasurementError in the fixed message forms:
+``x-`` keys, which are kept. Every format takes ``measured``, when the measurement was taken
+(ISO 8601 with a time zone). Every problem is a MeasurementError in the fixed message forms:
 ``FILE:LINE: error:`` for a header line or data row, ``FILE: error:`` for the whole file.
 """
 
 from __future__ import annotations
 
+import datetime as dt
 import math
 import os
 from dataclasses import dataclass, field
@@ -16,6 +18,8 @@ from pathlib import Path
 from ..diagnostics import Location, MeasurementError
 
 MAX_BYTES = 64 * 1024 * 1024  #: a measurement file larger than this is not a measurement file
+
+COMMON_KEYS = {"measured"}  #: header keys every format takes
 
 MAGICS = {
     "# postproc ballbar 1": "ballbar trace",
@@ -33,6 +37,7 @@ class Table:
     extras: dict[str, str]  #: the x- keys
     columns: list[str]
     rows: list[tuple[int, list[float]]] = field(default_factory=list)  #: (line, values)
+    measured: dt.datetime | None = None  #: the ``measured`` key: when the measurement was taken
 
     def where(self, line: int | None = None) -> Location:
         return Location(self.path, line)
@@ -83,6 +88,18 @@ def _float(text: str) -> float | None:
     return value if math.isfinite(value) else None
 
 
+def _moment(text: str, location: Location) -> dt.datetime:
+    """The ``measured`` key: an ISO 8601 time with its zone (a time without one is ambiguous)."""
+    try:
+        moment = dt.datetime.fromisoformat(text)
+    except ValueError:
+        moment = None
+    if moment is None or moment.tzinfo is None:
+        why = "is not an ISO 8601 time" if moment is None else "has no time zone"
+        raise MeasurementError(f"measured = {text!r} {why}; write it like 2026-11-20T14:05:00+01:00", location)
+    return moment
+
+
 def _decode(path: str, data: bytes) -> str:
     if not data.strip():
         raise MeasurementError("the file is empty", Location(path))
@@ -122,6 +139,7 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
             raise MeasurementError(f"this is a postproc {other}, not a {MAGICS[magic]}", Location(path, 1))
         raise MeasurementError(f"the first line must be {magic!r}, not {lines[0][:40]!r}", Location(path, 1))
 
+    allowed = allowed | COMMON_KEYS
     header: dict[str, tuple[str, int]] = {}
     extras: dict[str, str] = {}
     number = 1
@@ -156,6 +174,9 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
         expected = " or ".join(",".join(c) for c in column_sets)
         raise MeasurementError(f"the CSV header row must be {expected}, not {lines[number - 1].strip()!r}", Location(path, number))
     table = Table(path, header, extras, columns)
+    if "measured" in header:
+        text, line = header["measured"]
+        table.measured = _moment(text, Location(path, line))
     for row_number in range(number + 1, len(lines) + 1):
         text = lines[row_number - 1].strip()
         if not text:

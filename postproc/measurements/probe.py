@@ -1,8 +1,8 @@
-"""Probe files and probe calibrations on an artifact (formats.md).
+"""Probe files and probe calibrations on an artifact (docs/formats.md §5, §6).
 
 Each row is the stylus-centre position C the control reported at the trigger and the unit
 direction n in which the probe travelled (into the material). The touched point is
-``P = C + (R_stylus + k(n)) n`` with ``k`` from a calibration (methods.md 9).
+``P = C + (R_stylus + k(n)) n`` with ``k`` from a calibration (docs/methods.md §9.1).
 
 Directions are named by ``theta``, the angle of the outward surface normal ``-n`` in the
 project's convention (from +X towards +Z): a touch straight down on a pole has theta = 90,
@@ -11,6 +11,7 @@ a touch on the +X side moving in -X has theta = 0.
 
 from __future__ import annotations
 
+import datetime as dt
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,6 +43,7 @@ class Touches:
     approach: np.ndarray  #: (n, 2) unit vectors into the material
     lines: tuple[int, ...]  #: the data row of each touch
     extras: dict[str, str] = field(default_factory=dict)
+    measured: dt.datetime | None = None  #: when the touches were taken, if the file says
 
     @property
     def theta(self) -> np.ndarray:
@@ -69,7 +71,7 @@ class CalibrationRun(Touches):
     artifact_centre: tuple[float, float] = (0.0, 0.0)
 
     def factors(self) -> np.ndarray:
-        """k at each touch: measured radius minus artifact radius (methods.md 9, eq. 4.4-4.5)."""
+        """k at each touch: measured radius minus artifact radius (docs/methods.md §9.2, eq. 4.4-4.5)."""
         measured = np.hypot(self.centres[:, 0] - self.artifact_centre[0], self.centres[:, 1] - self.artifact_centre[1])
         return measured - self.stylus_radius - self.artifact_radius
 
@@ -100,7 +102,7 @@ def read_probe(path: str) -> ProbeFile:
     if before and repeatability is None:
         raise table.error("datum readings without repeatability_mm: the stability check needs it")
     centres, approach, lines = _touches(table)
-    return ProbeFile(path, stylus, centres, approach, lines, table.extras, before, after, repeatability)
+    return ProbeFile(path, stylus, centres, approach, lines, table.extras, table.measured, before, after, repeatability)
 
 
 def read_calibration(path: str) -> CalibrationRun:
@@ -109,7 +111,7 @@ def read_calibration(path: str) -> CalibrationRun:
     radius = table.number("artifact_radius_mm", positive=True, required=True)
     centre = (table.number("artifact_center_x_mm", required=True), table.number("artifact_center_z_mm", required=True))
     centres, approach, lines = _touches(table)
-    run = CalibrationRun(path, stylus, centres, approach, lines, table.extras, radius, centre)
+    run = CalibrationRun(path, stylus, centres, approach, lines, table.extras, table.measured, radius, centre)
     factors = run.factors()
     worst = int(np.argmax(np.abs(factors)))
     if abs(factors[worst]) > 0.5 * stylus:

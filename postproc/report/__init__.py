@@ -9,7 +9,7 @@ One job per module:
   ``compensate`` fits them, the measurements read and analysed, the program compensated;
 - :mod:`.sections`: what goes in: the measurements, the ISO 230-4 figures and the fitted
   models with their uncertainty, the predicted profile before and after compensation, the
-  four figures (methods.md 12) of each, and the provenance;
+  four figures (docs/methods.md §12) of each, and the provenance;
 - :mod:`.fitted`: a compensator's ``report()`` dict as tables and images, whatever it holds;
 - :mod:`.prediction`: the predicted profile, on the virtual lathe (:mod:`postproc.simulator`);
 - :mod:`.provenance`: versions, inputs with their SHA-256, machine profile, options, time;

@@ -118,7 +118,7 @@ class Run:
         return before, before + moved, stock
 
     def stock(self) -> float:
-        """formats.md: ``--option stock=MM``, how far outside this profile the probed pass was cut."""
+        """docs/formats.md §9.6: ``--option stock=MM``, how far outside this profile the probed pass was cut."""
         if self.pipeline is None:
             return 0.0
         for settings in self.pipeline.core.settings.values():

@@ -14,7 +14,7 @@
    the compensators ask for it and as the compensated program emits it, the profile the
    ballbar's machine would cut before and after, and the probed profile and what the
    correction makes of it (:mod:`.prediction`).
-6. **The four figures** (methods.md 12) of every deviation above, in one table.
+6. **The four figures** (docs/methods.md §12) of every deviation above, in one table.
 7. **Warnings** of the run, and 8. **Provenance** (:mod:`.provenance`).
 
 Without a program, the report covers the measurements and the models alone. Without a
@@ -338,7 +338,7 @@ def _four_figures(run: Run) -> Section:
         return Section("four-figures-section", "The four figures", [Text("No deviations to summarise.", "note")])
     return Section("four-figures-section", "The four figures", [
         Text("Mean, mean absolute, RMS and standard deviation (population, ddof = 0) of each set of deviations, "
-             "in micrometres (methods.md 12)."),
+             "in micrometres (docs/methods.md §12)."),
         Table(("deviations", "mean (um)", "mean |e| (um)", "RMS (um)", "sigma (um)", "points"), rows,
               "the four figures", key="four-figures")])
 

@@ -1,4 +1,4 @@
-"""A deterministic virtual two-axis lathe, to judge compensation methods as methods.md 8 does.
+"""A deterministic virtual two-axis lathe, to judge compensation methods as docs/methods.md §8 does.
 
 One job per module:
 
@@ -8,9 +8,9 @@ One job per module:
 - :mod:`.surface`: what a stylus or a CMM touches;
 - :mod:`.ballbar`, :mod:`.cut`, :mod:`.touch` + :mod:`.probe`, :mod:`.calibrate`, :mod:`.cmm`:
   the ballbar test, cutting, probing a profile, calibrating on the sphere, inspecting;
-- :mod:`.files`: the results as formats.md files.
+- :mod:`.files`: the results as files of docs/formats.md §4-§6 and §17.
 
-Conventions (formats.md): radius coordinates x and z in mm; theta from +X towards +Z; ``cw``
+Conventions (docs/formats.md §1): radius coordinates x and z in mm; theta from +X towards +Z; ``cw``
 (G02) runs with theta increasing, ``ccw`` (G03) decreasing. An error is actual minus
 commanded. Ballbar deviation: bar length minus nominal radius (positive outside). Profile
 deviation: along the normal out of the material, positive = material left. Noise comes from

@@ -1,4 +1,4 @@
-"""The ballbar test on the virtual lathe (methods.md 3).
+"""The ballbar test on the virtual lathe (docs/methods.md §3.1).
 
 The commanded test, in one direction at one feed: a radial feed-in of ``feed_in_mm`` from
 outside the circle, 180 deg of pre-travel, 360 deg captured from ``start_angle_deg``, 180 deg
@@ -12,7 +12,7 @@ radius, plus noise. Readings are evenly spaced in time, hence in commanded angle
 
 - processed: one reading every ``spacing_deg``, with its commanded theta;
 - raw: ``oversample`` readings per ``spacing_deg``, in time order; the reader spaces them
-  as formats.md says (sample i at start + s i capture / n) and averages them in sixes.
+  as docs/formats.md §4 says (sample i at start + s i capture / n) and averages them in sixes.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Calibrating the probe on the sphere artifact (methods.md 9, chapter 4).
+"""Calibrating the probe on the sphere artifact (docs/methods.md §9.2; the dissertation's chapter 4).
 
 Touches every ``step_deg`` over the top 180 deg of the ball, from its equator on -X over the
 pole to its equator on +X (outward-normal theta 180 down to 0), each approaching the centre.

@@ -23,7 +23,7 @@ in radius coordinates of the work coordinate system the part programs use.
 - ``backlash_mm`` (0): lost motion b: the axis lags its command by b/2 in its direction of
   travel; after a reversal it stands still until the command has moved b.
 - ``pitch_amplitude_mm`` (0): d in ``d sin(2 pi (z - z_ref) / pitch)``, for both axes a
-  function of z (methods.md 8).
+  function of z (docs/methods.md §8).
 - ``straightness_mm`` (0): the slide's straightness, a parabolic bow of this height at the
   middle of its span and zero at both ends: the X slide bows Z (a Z error over x), the Z slide
   bows X (an X error over z).
@@ -32,7 +32,7 @@ in radius coordinates of the work coordinate system the part programs use.
   lag only moves the tool along its path; a mismatch between the axes distorts it, by an
   amount that grows with the feed and flips with the direction of motion.
 
-``[simulation.ballbar]``: the 720 deg test of methods.md 3.
+``[simulation.ballbar]``: the 720 deg test of docs/methods.md §3.1.
 
 - ``radius_mm`` (100), ``center_x_mm``, ``center_z_mm`` (0, 0): nominal test circle.
 - ``feed_mm_min`` (1000).
@@ -79,7 +79,7 @@ in radius coordinates of the work coordinate system the part programs use.
 - ``tool_y_mm`` (0): the tool tip's height off the Y = 0 plane; the tip cuts radius
   ``sqrt(x^2 + y^2)`` and never reaches the spindle axis.
 - ``nub_height_mm`` (0): the stock the previous pass left; where the tool did not reach the
-  axis, a nub this high remains (methods.md 9).
+  axis, a nub this high remains (docs/methods.md §9.5).
 - ``spindle_rpm`` (1000): converts feeds per revolution (G99) into mm/min; G96 is not modelled.
 - ``step_mm`` (0.02): spacing of the surface polyline.
 
@@ -228,7 +228,7 @@ def from_table(table: Any, profile: profiles.MachineProfile = profiles.DEFAULT, 
     if not isinstance(table, dict):
         raise OptionError("'simulation' must be a table", Location(origin))
     values = _fields(Simulation, table, "simulation", origin, tables=TABLES)
-    # Without soft limits in the profile, the V40R's travel (methods.md 1) spans the bow.
+    # Without soft limits in the profile, the V40R's travel (docs/methods.md §1) spans the bow.
     spans = {"x": profile.x_limits or (-5.0, 265.0), "z": profile.z_limits or (-450.0, 450.0)}
     for name in ("x", "z"):
         axis = values.get(name, Axis())

@@ -1,12 +1,12 @@
 """The machine error model: where the tool really is for a commanded position.
 
-methods.md 8, extended. With u = x - x_ref, w = z - z_ref (the machine's reference):
+docs/methods.md §8, extended. With u = x - x_ref, w = z - z_ref (the machine's reference):
 
     e_x = a_x u + d_x sin(2 pi w / p) + s w + h_z bow_z(z)
     e_z = a_z w + d_z sin(2 pi w / p)       + h_x bow_x(x)
 
 a: scaling, d: pitch-periodic term (p the ballscrew pitch; both axes as functions of z, as
-methods.md gives), s: squareness (the X error per unit Z), h bow: a slide's straightness, a
+docs/methods.md §8 gives), s: squareness (the X error per unit Z), h bow: a slide's straightness, a
 parabola over its span, 1 at the middle and 0 at the ends (the Z slide bows X, the X slide
 bows Z). These are functions of the commanded position.
 

@@ -1,10 +1,10 @@
-"""The virtual machine's results as files: the formats of formats.md, and its own surface file.
+"""The virtual machine's results as files: the formats of docs/formats.md, and its own surface file.
 
-Traces, probe files and calibrations are written exactly as formats.md describes, so the
+Traces, probe files and calibrations are written exactly as docs/formats.md §4-§6 describes, so the
 project's readers take them; provenance goes into ``x-`` header keys, which readers keep and
 ignore. Lengths get 7 decimals (0.1 nm): the noise, not the format, limits the data.
 
-The surface of a cut (not a formats.md format; postproc's own):
+The surface of a cut (postproc's own format, docs/formats.md §17):
 
     # postproc surface 1
     # x-program = part.nc

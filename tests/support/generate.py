@@ -17,7 +17,7 @@ of rs274's 4-decimal canonical output exactly:
   (where the centre flips side under rounding), and no arc closes on itself (a rounded
   end point equal to the start would turn a 350-degree arc into a full circle).
 
-Conventions (docs/methods.md section 2): radius coordinates x = X/2, z = Z; theta about
+Conventions (docs/methods.md §2): radius coordinates x = X/2, z = Z; theta about
 the centre: x = xc + r cos(theta), z = zc + r sin(theta); G02 = theta increasing, G03 =
 theta decreasing.  I and K are incremental from the start point, and I is a radius value.
 

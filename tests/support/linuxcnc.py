@@ -21,7 +21,7 @@ batch mode and prints one canonical machining call per line on stdout, e.g.::
 * On an error rs274 prints the message and the offending line on stderr and
   exits with status 1 (stderr always starts with a line ``executing``).
 
-Conventions of this project (docs/methods.md section 2): radius coordinates
+Conventions of this project (docs/methods.md §2): radius coordinates
 x = X/2, z = Z, millimetres; theta about a centre: x = xc + r cos(theta),
 z = zc + r sin(theta); G02 = clockwise seen from +Y = theta increasing ('cw'),
 G03 = theta decreasing ('ccw').  LinuxCNC's G18 G2/G3 are the same physical
