@@ -40,6 +40,17 @@ def expectations(folder: str) -> dict:
     return tomllib.loads(path.read_text(encoding="utf-8")).get(folder, {})
 
 
+def machine_args(tmp_path: Path, keys: dict) -> list[str]:
+    """``--machine FILE`` with the machine profile keys a corpus program needs (expectations.toml), or
+    nothing: the program is then read as the default profile reads it."""
+    if not keys:
+        return []
+    path = tmp_path / "machine.toml"
+    path.write_text("".join(f"{key} = {str(value).lower() if isinstance(value, bool) else repr(value)}\n"
+                            for key, value in keys.items()))
+    return ["--machine", str(path)]
+
+
 def known_defect(expected: dict, check: str):
     """pytest marks for one check of one corpus program: a strict xfail naming the engine defect that
     makes it fail today (``[folder."name".xfail] check = "reason"``), so its fix is proven when it lands."""

@@ -14,7 +14,7 @@ import re
 
 import pytest
 
-from conftest import CORPUS, SAMPLES, corpus_cases, corpus_dir, expectations
+from conftest import CORPUS, SAMPLES, corpus_cases, corpus_dir, expectations, machine_args
 
 FOLDERS = ("fanuc", "fanuc-mill", "malformed", "linuxcnc")
 METADATA = {"README.md", "SOURCES.md", "expectations.toml", ".gitattributes"}
@@ -87,20 +87,10 @@ def model(tmp_path_factory):
     return path
 
 
-def _machine(tmp_path, keys: dict) -> list[str]:
-    """``--machine FILE`` with the profile keys a program needs, or nothing."""
-    if not keys:
-        return []
-    path = tmp_path / "machine.toml"
-    path.write_text("".join(f"{key} = {str(value).lower() if isinstance(value, bool) else repr(value)}\n"
-                            for key, value in keys.items()))
-    return ["--machine", str(path)]
-
-
 @pytest.mark.parametrize("path, expected", corpus_cases("fanuc", "compensate"))
 def test_lathe_programs_are_compensated_and_the_output_passes_check(run, model, tmp_path, path, expected):
     target = tmp_path / path.name
-    machine = _machine(tmp_path, expected.get("machine", {}))
+    machine = machine_args(tmp_path, expected.get("machine", {}))
     result = run("compensate", str(path), "--model", str(model), *machine, "-o", str(target))
     assert result.exit_code == 0, result.stderr
     assert target.read_bytes() != path.read_bytes(), "the model changed nothing"
@@ -114,7 +104,9 @@ def test_lathe_programs_are_compensated_and_the_output_passes_check(run, model, 
 def test_a_program_that_needs_a_profile_key_is_refused_without_it(run, model, tmp_path, path, expected):
     target = tmp_path / path.name
     result = run("compensate", str(path), "--model", str(model), "-o", str(target))
-    assert result.exit_code == 4, result.stderr
+    # 4: refused for safety (a reading the profile must settle, calculator_input); 3: bad input for this
+    # profile (a word of an axis the default lathe does not have)
+    assert result.exit_code in (3, 4), result.stderr
     assert result.stdout_bytes == b"" and not target.exists()
     assert any(key in result.stderr for key in expected["machine"]), result.stderr
 
