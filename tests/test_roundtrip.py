@@ -7,33 +7,34 @@ import re
 import pytest
 from hypothesis import HealthCheck, given, settings
 
-from conftest import SAMPLES, corpus
+from conftest import SAMPLES, corpus_cases, machine_args
 from postproc.reader import read_blocks
 from postproc.source import Source
 from strategies import lathe_programs
 
 
 def _programs():
-    samples = sorted(SAMPLES.glob("**/*.nc"))
-    return corpus("fanuc") + samples
+    samples = [pytest.param(path, {}, id=path.name) for path in sorted(SAMPLES.glob("**/*.nc"))]
+    return corpus_cases("fanuc", "roundtrip") + samples
 
 
-@pytest.mark.parametrize("path", _programs(), ids=lambda p: p.name)
-def test_lathe_programs_come_back_byte_for_byte(run, path):
+@pytest.mark.parametrize("path, expected", _programs())
+def test_lathe_programs_come_back_byte_for_byte(run, path, expected, tmp_path):
     data = path.read_bytes()
-    by_file = run("compensate", str(path))
+    machine = machine_args(tmp_path, expected.get("machine", {}))
+    by_file = run("compensate", str(path), *machine)
     assert by_file.exit_code == 0, by_file.stderr
     assert by_file.stdout_bytes == data
-    by_stdin = run("compensate", input=data)
+    by_stdin = run("compensate", *machine, input=data)
     assert by_stdin.exit_code == 0, by_stdin.stderr
     assert by_stdin.stdout_bytes == data
-    checked = run("check", str(path))
+    checked = run("check", str(path), *machine)
     assert checked.exit_code == 0, checked.stderr
     assert checked.stdout == ""
 
 
-@pytest.mark.parametrize("path", corpus("fanuc-mill"), ids=lambda p: p.name)
-def test_mill_programs_parse_losslessly(path):
+@pytest.mark.parametrize("path, expected", corpus_cases("fanuc-mill", "roundtrip"))
+def test_mill_programs_parse_losslessly(path, expected):
     with Source(str(path)) as source:
         blocks = list(read_blocks(source.lines(), source.name))
         assert b"".join(b.raw.encode("utf-8", "surrogateescape") for b in blocks) == path.read_bytes()
@@ -43,16 +44,9 @@ def test_mill_programs_parse_losslessly(path):
                 assert block.text[word.col : word.end] == word.text
 
 
-MALFORMED = {
-    "kiely_O58215_snowman.nc": (15, 5, "N45 stands on 3 blocks"),
-    "mill_meloc_program_010.nc": (11, 9, "second decimal point"),
-    "mill_selyaev_2_main_malformed.nc": (15, 10, "unexpected character ':'"),
-}
-
-
-@pytest.mark.parametrize("path", corpus("malformed"), ids=lambda p: p.name)
-def test_malformed_programs_are_refused_with_a_position_and_no_output(run, path, tmp_path):
-    line, col, words = MALFORMED[path.name]
+@pytest.mark.parametrize("path, expected", corpus_cases("malformed", "refused"))
+def test_malformed_programs_are_refused_with_a_position_and_no_output(run, path, expected, tmp_path):
+    line, col, words = expected["line"], expected["column"], expected["words"]
     target = tmp_path / "out.nc"
     for args in (("compensate", str(path)), ("compensate", str(path), "-o", str(target)), ("check", str(path))):
         result = run(*args)

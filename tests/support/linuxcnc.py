@@ -259,7 +259,7 @@ def arc_sweep_deg(move: Move) -> float:
 _WORD = re.compile(r"([A-Z])([+-]?(?:\d+\.?\d*|\.\d+))")
 _LENGTH_ADDRESSES = set("XZUWIKR")
 _DROPPED_G = {18, 40, 54, 80, 96, 97, 98, 99}   # no effect on the XZ path here
-_DROPPED_M = {0, 1, 3, 4, 5, 8, 9}
+_DROPPED_M = {0, 1, 3, 4, 5, 8, 9, 41, 42, 43, 44}   # M41-M44: spindle gear range
 _END_M = {2, 30}
 
 
@@ -299,7 +299,8 @@ def to_linuxcnc(fanuc_program: str, *, units: str = "mm", gcode_system: str = "A
     incremental (U diameter) in G-code system A, G90/G91 absolute/incremental
     in systems B/C, I/K (incremental, radius) and R (negative = more than
     180 deg; R wins over I/K as on FANUC), F/S (dropped: a fixed F1000 is set
-    so arcs never lack a feed), M00/M01/M03-M05/M08/M09 (dropped), M02/M30
+    so arcs never lack a feed), M00/M01/M03-M05/M08/M09 and the gear ranges
+    M41-M44 (dropped), M02/M30
     (end; the rest is ignored), G18/G40/G54/G80/G96-G99 and G50 S.. (no path
     effect, dropped).
     T words raise unless ``ignore_tool_words`` (offsets are then taken as zero).
