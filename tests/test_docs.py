@@ -68,8 +68,9 @@ def _where(path: Path, text: str, index: int) -> str:
 
 
 def _resolve(page: str, citing: Path) -> Path | None:
-    """The repository file a cited page name means: beside the citing file, from the root, or in docs/."""
-    for base in (citing.parent, REPO, DOCS):
+    """The repository file a cited page name means: beside the citing file, from the root, in docs/,
+    or among the corpus's own pages (tests/corpus/SOURCES.md, which the corpus tests name)."""
+    for base in (citing.parent, REPO, DOCS, REPO / "tests" / "corpus"):
         candidate = (base / page).resolve()
         if candidate.is_relative_to(REPO) and candidate.is_file():
             return candidate
