@@ -34,7 +34,7 @@ def plot_traces(traces: Sequence[BallbarTrace], path: str, title: str | None = N
     from matplotlib.figure import Figure
 
     scale_um = _round_up(max(float(np.abs(t.deviations).max()) for t in traces) * 1000.0)
-    figure = Figure(figsize=(6.0, 6.4))
+    figure = Figure(figsize=(6.4, 6.4))
     axes = figure.add_subplot()
     ring = np.linspace(0.0, 360.0, 721)
     covered = np.zeros(ring.size, dtype=bool)
@@ -69,7 +69,7 @@ def plot_traces(traces: Sequence[BallbarTrace], path: str, title: str | None = N
     partial = f", partial arc {'/'.join(f'{s:g}' for s in spans)} deg (ISO 13041-6)" if spans else ""
     axes.set_title(title or f"Ballbar, R = {', '.join(f'{r:g}' for r in radii)} mm{partial}", fontsize="medium")
     magnification = BAND * radius_mm * 1000.0 / scale_um
-    figure.text(0.5, 0.03, f"nominal circle solid{' (dotted where not measured)' if spans else ''}; dotted rings "
+    figure.text(0.5, 0.03, f"nominal circle solid{' (dotted: not measured)' if spans else ''}; dotted rings "
                 f"at \u00b1{scale_um:g} um "
                 f"(deviation magnified \u00d7{magnification:,.0f})", ha="center", fontsize="small")
     _save(figure, path)
@@ -81,6 +81,7 @@ def along_arc(trace: BallbarTrace) -> tuple[np.ndarray, np.ndarray]:
     whole circle comes back closed."""
     start, span = trace.arc
     along = np.mod(trace.angles - start, 360.0)
+    start = start - 360.0 if start > 180.0 else start  # an arc across +X reads -20 .. 200, not 340 .. 560
     order = np.argsort(along, kind="stable")
     angles, deviations = start + along[order], trace.deviations[order]
     if span >= 360.0:
