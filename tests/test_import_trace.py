@@ -177,7 +177,7 @@ def test_an_export_round_trips_whatever_its_dialect(run, tmp_path_factory, separ
     if decimal_comma and separator == ",":
         separator = ";"
     rng = np.random.default_rng(seed)
-    step = span / count if span >= 360.0 else span / (count - 1)
+    step = 360.0 / count if span > 359.0 else span / (count - 1)  # a whole circle does not repeat its first angle
     angles = rng.uniform(-180.0, 180.0) + step * np.arange(count)
     deviations = rng.normal(0.0, 0.005, count)
     scale = 1000.0 if unit == "um" else 1.0
