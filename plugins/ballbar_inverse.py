@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from postproc.ballbar_analysis import backlash_signs, jointly_centred
 from postproc.compensator import Compensator, Measurements, Option, Piece
 from postproc.diagnostics import Location, MeasurementError, OptionError
 from postproc.geometry import Arc
@@ -23,10 +24,16 @@ class BallbarInverse(Compensator):
     the same motion: every G02/G03 feed arc takes ``-e(theta)`` along its radius, theta
     measured about the arc's own centre (eq. 6.1). Lines are left alone.
 
-    What it needs: ``--ballbar`` with one trace, or a CCW and a CW trace of one test (G03
-    arcs then take the CCW trace, G02 arcs the CW one; with one trace, arcs of the other
-    direction take it with a warning). The trace must cover each arc's span without a gap
-    wider than ``max-gap`` degrees.
+    What it needs (the minimum evidence): ``--ballbar`` with one trace, or a CCW and a CW trace
+    of one test (G03 arcs then take the CCW trace, G02 arcs the CW one; with one trace, arcs of
+    the other direction take it with a warning), each of at least 36 samples over at least
+    90 deg of arc. A partial arc (a lathe's 220 deg test, ISO 13041-6) serves the arcs it
+    covers: the trace must cover each arc's span without a gap wider than ``max-gap`` degrees,
+    and an arc that leaves the captured arc is refused naming its line (a trace is never
+    extrapolated round the circle). A CCW and a CW trace are centred with one set-up centre
+    fitted jointly with the machine model (a separate circle fit is biased on a partial arc);
+    if their backlash reads negative on both axes (swapped labels) the run is refused unless
+    ``--force``.
 
     Options:
 
@@ -57,10 +64,25 @@ class BallbarInverse(Compensator):
                                    Location(traces[2].path))
         if len(traces) == 2:
             ccw, cw = pair(traces)
+            if not (ccw.centered or cw.centered):
+                (ccw, cw), result = jointly_centred([ccw, cw])
+                self._check_labels(result)
             self.traces = {"ccw": ccw, "cw": cw}
         else:
             self.traces = {traces[0].direction: traces[0]}
         self._warned = False
+
+    def _check_labels(self, result) -> None:
+        """Swapped ccw/cw labels would put each trace on the other direction's arcs: refused unless forced."""
+        if "backlash_x" not in result.names or "backlash_z" not in result.names:
+            return
+        problem, caution = backlash_signs(result.estimate("backlash_x"), result.estimate("backlash_z"))
+        where = Location(result.samples.traces[0].path)
+        if problem and not self.context.force:
+            raise MeasurementError(f"{self.name}: {problem}; --force uses the traces as they are", where)
+        for text in (problem, caution):
+            if text:
+                self.context.reporter.warn(f"{self.name}: {text}", where)
 
     def _trace(self, cw: bool) -> BallbarTrace:
         direction = "cw" if cw else "ccw"
@@ -94,7 +116,7 @@ class BallbarInverse(Compensator):
         if mapping == "center-offset":
             shift = self._centre_shift(trace, start, end)
             return np.broadcast_to(-np.array(shift), points.shape).copy()
-        error = trace.at(theta)
+        error = trace.at(theta, None)  # required above: the samples cover the arc's span
         if mapping == "relative":
             error = error * arc.r / trace.radius
         return -error[:, None] * radial

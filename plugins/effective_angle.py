@@ -6,8 +6,10 @@ from typing import Any
 
 import numpy as np
 
+from postproc import ballbar_fit
+from postproc.ballbar_analysis import centred, tests
 from postproc.compensator import Measurements
-from postproc.diagnostics import ModelError
+from postproc.diagnostics import Location, MeasurementError, ModelError
 from postproc.hookspecs import hookimpl
 from postproc.measurements.ballbar import BallbarTrace
 from postproc_plugins.parametric import ErrorFunctions
@@ -33,19 +35,47 @@ def tables(ccw: BallbarTrace, cw: BallbarTrace) -> dict[str, tuple[np.ndarray, n
     The trace at theta says e_x = dev cos(theta) at u = r cos(theta), e_z = dev sin(theta) at
     w = r sin(theta) (eq. 6.7-6.10). X travels + on the upper half of the ccw run and the lower
     half of the cw run, - on the other two; Z travels + on the right half of the cw run and the
-    left half of the ccw run. Each table averages the two halves that travel its way.
+    left half of the ccw run. Each table averages the two halves that travel its way where both
+    were measured, takes the one that was where only one was (a partial arc), and has no entry
+    where neither was.
     """
     angles = np.concatenate([ccw.angles, cw.angles])
     r = ccw.radius
     theta = np.union1d(_fold_x(angles), [0.0, 180.0])[::-1]  # u increasing
     phi = np.union1d(_fold_z(angles), [-90.0, 90.0])
     cos, sin = np.cos(np.radians(theta)), np.sin(np.radians(phi))
-    return {
-        "x+": (r * cos, cos * 0.5 * (ccw.at(theta) + cw.at(-theta))),
-        "x-": (r * cos, cos * 0.5 * (cw.at(theta) + ccw.at(-theta))),
-        "z+": (r * sin, sin * 0.5 * (cw.at(phi) + ccw.at(180.0 - phi))),
-        "z-": (r * sin, sin * 0.5 * (ccw.at(phi) + cw.at(180.0 - phi))),
+    found = {
+        "x+": (r * cos, cos * _mean(ccw.at(theta), cw.at(-theta))),
+        "x-": (r * cos, cos * _mean(cw.at(theta), ccw.at(-theta))),
+        "z+": (r * sin, sin * _mean(cw.at(phi), ccw.at(180.0 - phi))),
+        "z-": (r * sin, sin * _mean(ccw.at(phi), cw.at(180.0 - phi))),
     }
+    return {name: (offsets[np.isfinite(errors)], errors[np.isfinite(errors)]) for name, (offsets, errors) in found.items()}
+
+
+def _mean(first: np.ndarray, second: np.ndarray) -> np.ndarray:
+    """The mean of two halves where both were measured, the one that was elsewhere, NaN where neither."""
+    return np.where(np.isnan(first), second, np.where(np.isnan(second), first, 0.5 * (first + second)))
+
+
+def merged(per_test: list[tuple[tuple[float, float], dict[str, tuple[np.ndarray, np.ndarray]]]],
+           centre: tuple[float, float]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Several tests' tables as one per axis and direction, offsets about ``centre``: at each
+    offset the mean of the tests that measured it (each interpolated within its own span)."""
+    result = {}
+    for name in TABLES:
+        axis = 0 if name.startswith("x") else 1
+        shifted = [(offsets + test_centre[axis] - centre[axis], errors)
+                   for test_centre, found in per_test for offsets, errors in [found[name]] if len(offsets)]
+        if not shifted:
+            result[name] = (np.zeros(0), np.zeros(0))
+            continue
+        grid = np.unique(np.concatenate([offsets for offsets, _ in shifted]))
+        stack = np.array([np.where((grid >= offsets[0]) & (grid <= offsets[-1]), np.interp(grid, offsets, errors), np.nan)
+                          for offsets, errors in shifted])
+        counts = np.isfinite(stack).sum(axis=0)
+        result[name] = (grid, np.nansum(stack, axis=0) / np.maximum(counts, 1))
+    return result
 
 
 class EffectiveAngle(ErrorFunctions):
@@ -68,10 +98,20 @@ class EffectiveAngle(ErrorFunctions):
     leak in between: the method is generic but not exact (Table 6.7). The report gives the
     figures of the traces minus what the tables predict for them.
 
-    What it needs: ``--ballbar`` with a CCW and a CW trace of one test, each round the whole
-    circle. Outside the square the test circle spans the tables are held at their ends, with
-    a warning naming the first block that goes there, unless ``--option extrapolate=true``:
-    then each table goes on along the straight line fitted to its outer tenth.
+    Partial arcs and several tests: a table has entries only where an arc measured it (each
+    half where it was captured, the mean of both where both were); the traces of each test are
+    centred with the set-up centre fitted jointly with the machine model (a separate circle
+    fit is biased on a partial arc); several tests (each a CCW and a CW trace of one circle)
+    give one table per axis and direction, the mean of the tests where they overlap.
+
+    What it needs (the minimum evidence): ``--ballbar`` with a CCW and a CW trace of each test,
+    at least 36 samples over at least 90 deg of arc each, screened as parametric's are (a
+    machine parameter the arcs cannot determine within ``max-uncertainty`` refuses, naming
+    the arc; swapped labels, a wrong radius or unit refuse unless ``--force``), and every one of
+    the four tables measured somewhere. Outside the box the arcs span the tables are held at
+    their ends, with a warning naming the first block that goes there, unless
+    ``--option extrapolate=true``: then each table goes on along the straight line fitted to
+    its outer tenth.
 
     Example: the sample V40R test (``samples/ballbar/v40r-100-*.csv``) on the hemishell::
 
@@ -83,9 +123,28 @@ class EffectiveAngle(ErrorFunctions):
     name = "effective-angle"
 
     def fit(self, measurements: Measurements) -> None:
-        ccw, cw = self._traces(measurements)
-        self.tables = tables(ccw, cw)
-        self._score(ccw, cw)
+        traces = self._traces(measurements)
+        limit = self.settings["max-uncertainty"]
+        for index, centre in enumerate(self.diagnosis.centres):
+            worst = max(3.0 * e.sigma for e in centre)
+            if worst > limit:
+                test = tests(traces)[index]
+                raise MeasurementError(f"{self.name}: on {ballbar_fit.arcs_text(test)}, the set-up centre is not "
+                                       f"determined (+-{worst * 1000:.2f} um, 3 sigma; at most {limit * 1000:g} um): "
+                                       "measure a longer arc", Location(test[0].path))
+        per_test = []
+        for test in tests(centred(traces, self.diagnosis)):
+            if [t.direction for t in test] != ["ccw", "cw"]:
+                raise MeasurementError(f"{self.name} needs one ccw and one cw trace of each test; the circle of R "
+                                       f"{test[0].radius:g} mm about ({test[0].centre[0]:g}, {test[0].centre[1]:g}) has "
+                                       f"{' and '.join(t.direction + ' ' + t.path for t in test)}", Location(test[0].path))
+            per_test.append((test[0].centre, tables(*test)))
+        self.tables = merged(per_test, self.centre)
+        for name, (offsets, _) in self.tables.items():
+            if len(offsets) < 2:
+                raise MeasurementError(f"{self.name}: the arcs measure no {name} table (the {name[0].upper()} axis "
+                                       f"travelling {name[1]}); measure a longer arc", Location(traces[0].path))
+        self._score(traces)
 
     def _lookup(self, table: str, at: np.ndarray) -> np.ndarray:
         offsets, errors = self.tables[table]

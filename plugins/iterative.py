@@ -21,11 +21,11 @@ class Summed:
         first = traces[0]
         self.path, self.radius, self.direction, self.centre = first.path, first.radius, first.direction, first.centre
 
-    def at(self, theta_deg) -> np.ndarray:
+    def at(self, theta_deg, max_gap: float | None = None) -> np.ndarray:
         """e_sum(theta) = sum of e_i(theta) (eq. 6.2); selective: only where |e_i| > threshold."""
         total = np.zeros(np.shape(theta_deg))
         for trace in self.traces:
-            error = trace.at(theta_deg)
+            error = trace.at(theta_deg, max_gap)
             if self.threshold is not None:
                 error = np.where(np.abs(error) > self.threshold, error, 0.0)
             total = total + error
@@ -37,7 +37,7 @@ class Summed:
 
     def points(self) -> np.ndarray:
         theta = np.radians(self.traces[0].angles)
-        r = self.radius + self.at(self.traces[0].angles)
+        r = self.radius + self.at(self.traces[0].angles, None)
         return np.column_stack([self.centre[0] + r * np.cos(theta), self.centre[1] + r * np.sin(theta)])
 
     @property
@@ -55,7 +55,9 @@ class Iterative(BallbarInverse):
 
     What it needs: ``--ballbar`` traces in iteration order (first the original trace, then
     the residual of each compensated run), of one direction or of both (each direction is
-    summed on its own, in the order given). If the bar was not re-mounted between
+    summed on its own, in the order given), each of at least 36 samples over at least 90 deg
+    of arc; every iteration's trace must cover each arc's span (a partial arc serves the arcs
+    it covers; an arc outside it is refused naming its line). If the bar was not re-mounted between
     iterations, mark the later traces ``centered = true`` so the set-up centre of the first
     is not removed again (a later trace's least-squares centre also holds the centre shift
     the compensated path made on purpose).

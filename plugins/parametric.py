@@ -1,7 +1,8 @@
-"""parametric: per-axis error functions fitted to a ballbar test (Kakino), on every feed move.
+"""parametric: per-axis error functions fitted to ballbar tests (Kakino), on every feed move.
 
 Also home to :class:`ErrorFunctions`, what ``parametric`` and ``effective-angle`` share: the
-test square, the extrapolation rule, and predicting the traces back from the model.
+tests (any number, whole circles or partial arcs), the screening of the traces, the box the
+arcs span and the extrapolation rule, and predicting the traces back from the model.
 """
 
 from __future__ import annotations
@@ -10,59 +11,64 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from postproc.ballbar_analysis import MAX_GAP_DEG, Estimate
+from postproc import ballbar_fit
+from postproc.ballbar_analysis import Estimate, screen, tests
 from postproc.compensator import Compensator, Measurements, Option, Piece
 from postproc.diagnostics import Location, MeasurementError, ModelError
 from postproc.figures import figures
 from postproc.hookspecs import hookimpl
-from postproc.measurements.ballbar import BallbarTrace, pair
-
-
-def circle_path(trace: BallbarTrace) -> dict[str, np.ndarray]:
-    """The commanded test at a trace's samples: offsets (u, w) from the centre, the unit
-    tangent (tx, tz) in the trace's direction and the direction each axis travels."""
-    theta = np.radians(trace.angles)
-    cos, sin = np.cos(theta), np.sin(theta)
-    k = 1.0 if trace.cw else -1.0  # cw: theta increasing
-    tx, tz = -k * sin, k * cos
-    return {"cos": cos, "sin": sin, "u": trace.radius * cos, "w": trace.radius * sin, "tx": tx, "tz": tz,
-            "dx": np.sign(np.round(tx, 12)), "dz": np.sign(np.round(tz, 12))}
-
-
-def as_measured(trace: BallbarTrace) -> np.ndarray:
-    """The trace with the reader's removed set-up centre put back (both runs share one mount)."""
-    theta = np.radians(trace.angles)
-    return trace.deviations + trace.setup_centre[0] * np.cos(theta) + trace.setup_centre[1] * np.sin(theta)
+from postproc.measurements.ballbar import BallbarTrace
 
 
 class ErrorFunctions(Compensator):
     """Per-axis error functions about a ballbar test's centre, applied to every feed move.
 
     Subclasses fit ``errors(u, w, x_direction, z_direction) -> (e_x, e_z)``: the error at
-    offsets (u, w) = (x - xc, z - zc) from the test centre with each axis travelling the
-    given way (+1, -1, or 0 for not known), all arrays of one value per point. The correction
-    is minus the error.
+    offsets (u, w) = (x - xc, z - zc) from the (first) test's centre with each axis travelling
+    the given way (+1, -1, or 0 for not known), all arrays of one value per point. The
+    correction is minus the error.
+
+    The tests: any number of traces; the traces of one circle (radius and centre) are one test
+    on one mount, with their own set-up centre; a ccw and a cw trace are needed. Before the
+    fit they are screened (:func:`postproc.ballbar_analysis.screen`): a machine parameter the
+    arcs cannot determine within ``max-uncertainty`` refuses, naming the arc and the parameter;
+    results no machine gives (swapped direction labels, a wrong radius or unit) refuse unless
+    ``--force``. The box the arcs span (the x and z the bars reached) is where the functions
+    are measured.
     """
 
     takes = ("ballbar",)
     needs = ("ballbar",)
-    options = (Option("extrapolate", bool, False, "use the error functions beyond the square the test circle spans"),)
+    options = (
+        Option("extrapolate", bool, False, "use the error functions beyond the box the test arcs span"),
+        Option("max-uncertainty", float, ballbar_fit.EFFECT_LIMIT_MM,
+               "largest 3-sigma effect (mm) of a fitted parameter the arcs must reach", positive=True),
+    )
 
     centre: tuple[float, float]
     radius: float
+    box: tuple[tuple[float, float], tuple[float, float]]
     fit_figures: dict[str, dict[str, float]]
 
     def errors(self, u, w, x_direction, z_direction) -> tuple[np.ndarray, np.ndarray]:
         raise NotImplementedError
 
-    def _traces(self, measurements: Measurements) -> tuple[BallbarTrace, BallbarTrace]:
-        ccw, cw = pair(measurements.ballbar)
-        for trace in (ccw, cw):
-            if trace.max_gap() > MAX_GAP_DEG:
-                raise MeasurementError(f"{self.name} needs a trace round the whole circle; this one has a gap of "
-                                       f"{trace.max_gap():.1f} deg (at most {MAX_GAP_DEG:g})", Location(trace.path))
-        self.centre, self.radius, self._warned = ccw.centre, ccw.radius, False
-        return ccw, cw
+    def _traces(self, measurements: Measurements) -> list[BallbarTrace]:
+        """The traces, screened; sets the reference centre, radius and box."""
+        traces = list(measurements.ballbar)
+        if len(traces) < 2:
+            raise MeasurementError(f"a CCW and a CW trace of one test are needed, {len(traces)} given",
+                                   Location(traces[0].path if traces else "<ballbar>"))
+        grouped = tests(traces)
+        if len({t.direction for t in traces}) < 2:
+            raise MeasurementError(f"{self.name} needs a ccw (G03) and a cw (G02) trace; all {len(traces)} are "
+                                   f"{traces[0].direction}", Location(traces[-1].path))
+        self.diagnosis = screen(traces, self.context.reporter, self.context.force, self.name)
+        first = grouped[0][0]
+        self.centre, self.radius, self._warned = first.centre, first.radius, False
+        samples = ballbar_fit.Samples.of(traces)
+        self.box = ((float(samples.x.min()), float(samples.x.max())), (float(samples.z.min()), float(samples.z.max())))
+        return traces
 
     def correct(self, piece: Piece) -> np.ndarray | None:
         return self.correct_many([piece])[0]
@@ -75,16 +81,17 @@ class ErrorFunctions(Compensator):
         points = np.concatenate([piece.points for piece in pieces]) if len(pieces) > 1 else pieces[0].points
         u, w = points[:, 0] - self.centre[0], points[:, 1] - self.centre[1]
         if not self.settings["extrapolate"]:
-            held_u, held_w = np.clip(u, -self.radius, self.radius), np.clip(w, -self.radius, self.radius)
+            (x0, x1), (z0, z1) = self.box
+            held_u = np.clip(u, x0 - self.centre[0], x1 - self.centre[0])
+            held_w = np.clip(w, z0 - self.centre[1], z1 - self.centre[1])
             if not self._warned:
                 outside = np.flatnonzero(np.maximum(np.abs(held_u - u), np.abs(held_w - w)) > 1e-9)
                 if len(outside):
                     self._warned = True
                     first = pieces[int(np.searchsorted(ends, outside[0], side="right"))]
-                    (x0, x1), (z0, z1) = self.square()
                     self.context.reporter.warn(
-                        f"{self.name}: the move on line {first.move.line} leaves the square the test circle spans "
-                        f"(x {x0:g} .. {x1:g}, z {z0:g} .. {z1:g} mm); its error functions are held at the square's "
+                        f"{self.name}: the move on line {first.move.line} leaves the box the test arcs span "
+                        f"(x {x0:g} .. {x1:g}, z {z0:g} .. {z1:g} mm); its error functions are held at the box's "
                         "edge there (--option extrapolate=true extrapolates them)")
             u, w = held_u, held_w
         x_direction = np.repeat(np.array([piece.x_direction for piece in pieces], dtype=float), counts)
@@ -96,40 +103,48 @@ class ErrorFunctions(Compensator):
         return [shift[end - count : end] for end, count in zip(ends.tolist(), counts)]
 
     def square(self) -> tuple[tuple[float, float], tuple[float, float]]:
-        """The square the test circle spans: where the error functions are measured."""
-        (xc, zc), r = self.centre, self.radius
-        return (xc - r, xc + r), (zc - r, zc + r)
+        """The box the test arcs span, (x0, x1), (z0, z1): where the error functions are measured
+        (the square of a whole circle)."""
+        return self.box
 
     def predicted(self, trace: BallbarTrace) -> np.ndarray:
         """The trace the model predicts on the commanded test, without a set-up centre."""
-        path = circle_path(trace)
-        e_x, e_z = self.errors(path["u"], path["w"], path["dx"], path["dz"])
-        return e_x * path["cos"] + e_z * path["sin"]
+        samples = ballbar_fit.Samples.of([trace])
+        e_x, e_z = self.errors(samples.x - self.centre[0], samples.z - self.centre[1], samples.dx, samples.dz)
+        return e_x * samples.cos + e_z * samples.sin
 
-    def _score(self, ccw: BallbarTrace, cw: BallbarTrace) -> None:
-        """Figures of the traces as measured minus the model's prediction, about one common
+    def _score(self, traces: Sequence[BallbarTrace]) -> None:
+        """Figures of the traces as measured minus the model's prediction, each test about its own
         least-squares centre (the set-up, which the model leaves out)."""
-        traces = (ccw, cw)
-        residual = np.concatenate([as_measured(t) - self.predicted(t) for t in traces])
-        theta = np.radians(np.concatenate([t.angles for t in traces]))
-        harmonic = np.column_stack([np.cos(theta), np.sin(theta)])
-        centre, *_ = np.linalg.lstsq(harmonic, residual, rcond=None)
-        residual = residual - harmonic @ centre
-        split = len(ccw.angles)
-        self.fit_figures = {"ccw": figures(residual[:split]).as_dict(), "cw": figures(residual[split:]).as_dict(),
-                            "both": figures(residual).as_dict()}
+        samples = ballbar_fit.Samples.of(list(traces))
+        residual = np.concatenate([ballbar_fit.as_measured(t) - self.predicted(t) for t in traces])
+        residual = ballbar_fit.without_centres(samples, residual)
+        directions = np.array([traces[i].direction for i in samples.trace])
+        self.fit_figures = {d: figures(residual[directions == d]).as_dict() for d in ("ccw", "cw")}
+        self.fit_figures["both"] = figures(residual).as_dict()
 
     def _extent(self) -> dict[str, Any]:
-        return {"centre_mm": list(self.centre), "radius_mm": self.radius}
+        (x0, x1), (z0, z1) = self.box
+        return {"centre_mm": list(self.centre), "radius_mm": self.radius, "box_mm": {"x": [x0, x1], "z": [z0, z1]}}
 
     def _load_extent(self, model: dict[str, Any]) -> None:
         self.centre = (float(model["centre_mm"][0]), float(model["centre_mm"][1]))
         self.radius = float(model["radius_mm"])
+        if not self.radius > 0:
+            raise ValueError(f"radius_mm {self.radius} is not positive")
+        box = model.get("box_mm")
+        if box is None:  # a model saved before partial arcs: the square of the whole circle
+            (xc, zc), r = self.centre, self.radius
+            self.box = ((xc - r, xc + r), (zc - r, zc + r))
+        else:
+            self.box = ((float(box["x"][0]), float(box["x"][1])), (float(box["z"][0]), float(box["z"][1])))
+            if not (self.box[0][0] <= self.box[0][1] and self.box[1][0] <= self.box[1][1]):
+                raise ValueError("box_mm: each range must run from low to high")
         self.fit_figures = model.get("fit", {})
         self._warned = False
 
     def report(self) -> dict[str, Any]:
-        (x0, x1), (z0, z1) = self.square()
+        (x0, x1), (z0, z1) = self.box
         return {**self._extent(), "square_mm": {"x": [x0, x1], "z": [z0, z1]},
                 "extrapolate": self.settings["extrapolate"], "fit_residual_um": self.fit_figures}
 
@@ -138,27 +153,53 @@ class ErrorFunctions(Compensator):
 APPLIED = ("scaling_x_plus", "scaling_x_minus", "scaling_z_plus", "scaling_z_minus", "backlash_x", "backlash_z",
            "squareness")
 FITTED = APPLIED + ("servo_mismatch",)
+SIDES = {"x": ("scaling_x_plus", "scaling_x_minus"), "z": ("scaling_z_plus", "scaling_z_minus")}
 
 
-def unit_errors(u, w, dx, dz, tx=0.0) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """(e_x, e_z) of each parameter at unit value, at offsets (u, w) with axis directions (dx, dz)
-    and unit tangent x component tx."""
-    u, w = np.asarray(u, dtype=float), np.asarray(w, dtype=float)
-    zero = np.zeros(np.broadcast(u, w).shape)
-    return {
-        "scaling_x_plus": (zero + np.where(u >= 0, u, 0.0), zero),
-        "scaling_x_minus": (zero + np.where(u < 0, u, 0.0), zero),
-        "scaling_z_plus": (zero, zero + np.where(w >= 0, w, 0.0)),
-        "scaling_z_minus": (zero, zero + np.where(w < 0, w, 0.0)),
-        "backlash_x": (zero - 0.5 * np.asarray(dx, dtype=float), zero),  # lags b/2 behind its command
-        "backlash_z": (zero, zero - 0.5 * np.asarray(dz, dtype=float)),
-        "squareness": (zero + w, zero),
-        "servo_mismatch": (zero - np.asarray(tx, dtype=float), zero),  # X lags Z by m along the path
-    }
+def side_errors(u: np.ndarray, w: np.ndarray, one_side: set[str]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Unit errors of the scalings: per side of the centre, or one for an axis in ``one_side``."""
+    zero = np.zeros_like(u)
+    result = {}
+    for axis, offset in (("x", u), ("z", w)):
+        pair = [(offset, zero), (np.where(offset >= 0, offset, 0.0), zero), (np.where(offset < 0, offset, 0.0), zero)]
+        if axis == "z":
+            pair = [(b, a) for a, b in pair]
+        if axis in one_side:
+            result[f"scaling_{axis}"] = pair[0]
+        else:
+            result.update(zip(SIDES[axis], pair[1:]))
+    return result
+
+
+def fit_sides(samples: ballbar_fit.Samples, u: np.ndarray, w: np.ndarray,
+              limit: float) -> tuple[ballbar_fit.JointFit, dict[str, str]]:
+    """The joint fit with a scaling per side of the centre, except on an axis where a side is not
+    seen or too little of it to fit on its own (3-sigma effect over ``limit``): that axis gets one
+    scaling for both sides. Returns the fit and why each such axis was joined."""
+    joined: dict[str, str] = {}
+    others = ballbar_fit.machine_errors(samples, ("backlash_x", "backlash_z", "squareness", "servo_mismatch"))
+    while True:
+        try:
+            result = ballbar_fit.fit(samples, side_errors(u, w, set(joined)) | others)
+        except ballbar_fit.Inseparable as exc:
+            side = next((name for name in exc.names for axis, pair in SIDES.items()
+                         if name in pair and axis not in joined), None)
+            if side is None:
+                raise
+            joined[side[8]] = f"{ballbar_fit.label(side)} is not seen by the arcs"
+            continue
+        vague = [(result.effect(name), name) for axis, pair in SIDES.items() if axis not in joined for name in pair
+                 if 3.0 * result.effect(name) > limit]
+        if not vague:
+            return result, joined
+        effect, side = max(vague)
+        reach = float(result.reach[result.names.index(side)])
+        joined[side[8]] = (f"the arcs reach {reach:.0f} mm on the {'+' if side.endswith('plus') else '-'} side only: on "
+                           f"its own {ballbar_fit.label(side)} would be +-{3.0 * effect * 1000:.2f} um (3 sigma)")
 
 
 class Parametric(ErrorFunctions):
-    """Fit per-axis error functions to a CCW and a CW ballbar trace; correct every feed move (docs/methods.md §7.2).
+    """Fit per-axis error functions to ballbar tests (CCW and CW, any arc); correct every feed move (docs/methods.md §7).
 
     What it corrects: the machine's position errors by axis, wherever the tool goes (lines
     and arcs of any radius). With (u, w) = (x - xc, z - zc) about the test centre and each
@@ -173,18 +214,30 @@ class Parametric(ErrorFunctions):
     Z). The correction is minus the error. The errors are zero at the test centre (apart
     from backlash): a constant is the ballbar's set-up centre, which is not a machine error.
 
-    How it is fitted: one linear least-squares fit to both traces as measured (the
-    removed set-up centres put back), the columns being the bar's reading of each
-    parameter's per-axis error, ``e_x cos + e_z sin``, plus the set-up centre and the
-    servo mismatch m (X lagging Z along the path: ``e_x -= m v_x / |v|``). m is fitted so it
-    does not bias the backlash, and reported, but not applied: it grows with the feed,
-    which in G96/G99 programs only the control knows. The report gives every parameter
-    with its 1-sigma uncertainty and the figures of the traces minus the model's prediction.
+    How it is fitted: one linear least-squares fit to every trace as measured (the removed
+    set-up centres put back; :mod:`postproc.ballbar_fit`), the columns being the bar's reading
+    of each parameter's per-axis error, ``e_x cos + e_z sin``, plus each test's set-up centre
+    and the servo mismatch m (X lagging Z along the path: ``e_x -= m v_x / |v|``). m is fitted
+    so it does not bias the backlash, and reported, but not applied: it grows with the feed,
+    which in G96/G99 programs only the control knows. On a partial arc the centre is fitted
+    with the model, never before it. A side of the centre an arc does not reach, or reaches
+    too little to fit on its own (3-sigma effect over ``max-uncertainty``), gets the other
+    side's scaling: one scaling for that axis, said in the report (``one_scaling``). The report
+    gives every parameter with its 1-sigma uncertainty and the figures of the traces minus the
+    model's prediction.
 
-    What it needs: ``--ballbar`` with a CCW and a CW trace of one test, each round the whole
-    circle. Outside the square the test circle spans the model is not extrapolated: the
-    error functions are held at the square's edge, with a warning naming the first block
-    that goes there, unless ``--option extrapolate=true``.
+    What it needs (the minimum evidence): ``--ballbar`` with a CCW and a CW trace; any number
+    of tests (traces of another radius or centre are another test with its own set-up centre,
+    fitted together). Each trace has at least 36 samples over at least 90 deg of arc (a whole
+    circle, or a lathe's partial arc, ISO 13041-6); every fitted parameter must come out with
+    a 3-sigma effect within ``--option max-uncertainty=MM`` (default 0.005: scaling within
+    50 ppm at 100 mm, backlash within 10 um), or the run is refused naming the arc and the
+    parameter (a 90 deg arc usually is: measure 180 deg or more). Traces that read like
+    swapped ccw/cw labels, a radius that is not the bar's, or a wrong unit are refused unless
+    ``--force``. Outside the box the arcs span (the x and z the bar reached: the test circle's
+    square for a whole circle) the model is not extrapolated: the error functions are held at
+    the box's edge, with a warning naming the first block that goes there, unless
+    ``--option extrapolate=true``.
 
     Example: the sample V40R test (``samples/ballbar/v40r-100-*.csv``: +30/-20 ppm scaling,
     4/3 um backlash) on the hemishell; X reverses at the pole, so the arc starts b_x/2 out::
@@ -199,23 +252,18 @@ class Parametric(ErrorFunctions):
     name = "parametric"
 
     def fit(self, measurements: Measurements) -> None:
-        ccw, cw = self._traces(measurements)
-        design, measured = [], []
-        for trace in (ccw, cw):
-            path = circle_path(trace)
-            units = unit_errors(path["u"], path["w"], path["dx"], path["dz"], path["tx"])
-            columns = [units[name][0] * path["cos"] + units[name][1] * path["sin"] for name in FITTED]
-            design.append(np.column_stack([*columns, path["cos"], path["sin"]]))  # + the set-up centre
-            measured.append(as_measured(trace))
-        design, measured = np.concatenate(design), np.concatenate(measured)
-        solution, *_ = np.linalg.lstsq(design, measured, rcond=None)
-        residual = measured - design @ solution
-        variance = float(residual @ residual) / (len(measured) - design.shape[1])
-        sigma = np.sqrt(np.diag(np.linalg.inv(design.T @ design)) * variance)
-        estimates = [Estimate(float(v), float(s)) for v, s in zip(solution, sigma)]
-        self.parameters = dict(zip(FITTED, estimates))
-        self.setup_centre = (estimates[-2], estimates[-1])
-        self._score(ccw, cw)
+        traces = self._traces(measurements)
+        samples = ballbar_fit.Samples.of(traces)
+        limit = self.settings["max-uncertainty"]
+        result, self.joined = fit_sides(samples, samples.x - self.centre[0], samples.z - self.centre[1], limit)
+        ballbar_fit.require(result, limit=limit)
+        fitted = result.estimates()
+        for axis in self.joined:
+            fitted.update(dict.fromkeys(SIDES[axis], fitted.pop(f"scaling_{axis}")))
+        self.parameters = {name: fitted[name] for name in FITTED}
+        self.setup_centres = [result.centre(mount) for mount in range(len(samples.groups))]
+        self.setup_centre = self.setup_centres[0]
+        self._score(traces)
 
     def errors(self, u, w, x_direction, z_direction) -> tuple[np.ndarray, np.ndarray]:
         """The sum over APPLIED of each parameter times its :func:`unit_errors`, written out:
@@ -231,7 +279,9 @@ class Parametric(ErrorFunctions):
 
     def model(self) -> dict[str, Any]:
         return {**self._extent(), "parameters": {name: [e.value, e.sigma] for name, e in self.parameters.items()},
-                "setup_centre_mm": [[e.value, e.sigma] for e in self.setup_centre], "fit": self.fit_figures}
+                "setup_centre_mm": [[e.value, e.sigma] for e in self.setup_centre],
+                "setup_centres_mm": [[[e.value, e.sigma] for e in centre] for centre in self.setup_centres],
+                "one_scaling": self.joined, "fit": self.fit_figures}
 
     def load(self, model: dict[str, Any]) -> None:
         try:
@@ -239,14 +289,23 @@ class Parametric(ErrorFunctions):
             self.parameters = {name: Estimate(float(model["parameters"][name][0]), float(model["parameters"][name][1]))
                                for name in FITTED}
             self.setup_centre = tuple(Estimate(float(v), float(s)) for v, s in model["setup_centre_mm"])
+            self.setup_centres = [tuple(Estimate(float(v), float(s)) for v, s in centre)
+                                  for centre in model.get("setup_centres_mm", [model["setup_centre_mm"]])]
+            self.joined = {str(axis): str(why) for axis, why in dict(model.get("one_scaling", {})).items()}
         except (KeyError, IndexError, TypeError, ValueError) as exc:
             raise ModelError(f"{self.name}: the saved model is incomplete ({exc.__class__.__name__}: {exc})") from None
+        if not all(np.isfinite([e.value for e in self.parameters.values()])):
+            raise ModelError(f"{self.name}: the saved model has parameters that are not finite numbers")
 
     def report(self) -> dict[str, Any]:
         fitted = {name: {"value": e.value, "sigma": e.sigma} for name, e in self.parameters.items()}
         fitted["servo_mismatch"]["applied"] = False
+        for axis, why in self.joined.items():
+            for name in SIDES[axis]:
+                fitted[name]["one_scaling_for_the_axis"] = why
         return {**super().report(), "parameters": fitted,
-                "setup_centre_mm": {"x": self.setup_centre[0].value, "z": self.setup_centre[1].value}}
+                "setup_centre_mm": {"x": self.setup_centre[0].value, "z": self.setup_centre[1].value},
+                "setup_centres_mm": [{"x": x.value, "z": z.value} for x, z in self.setup_centres]}
 
 
 @hookimpl

@@ -63,6 +63,7 @@ class _Commands(click.Group):
     modules = {
         "ballbar": "postproc.commands.ballbar",
         "budget": "postproc.commands.budget",
+        "import-trace": "postproc.commands.import_trace",
         "inspect": "postproc.commands.inspect",
         "probe-import": "postproc.commands.probe_import",
         "probe-program": "postproc.commands.probe_program",

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from conftest import SAMPLES
 from postproc.ballbar_analysis import circular_deviation, circular_test, diagnose, predict
 from postproc.cli import main
 from postproc.diagnostics import MeasurementError
@@ -49,9 +50,11 @@ EXPECTED = {"G": {"ccw": 0.006, "cw": 0.004}, "F": {"ccw": (-0.001, 0.005), "cw"
 
 
 def setup(theta_deg):
-    """What a pivot off the centre by PIVOT adds to the bar length (first order)."""
+    """What a pivot off the centre by PIVOT adds to the bar length (to second order: the bar is the
+    hypotenuse, (PIVOT . tangent)^2 / 2R more)."""
     theta = np.radians(theta_deg)
-    return -PIVOT[0] * np.cos(theta) - PIVOT[1] * np.sin(theta)
+    cos, sin = np.cos(theta), np.sin(theta)
+    return -PIVOT[0] * cos - PIVOT[1] * sin + (PIVOT[1] * cos - PIVOT[0] * sin) ** 2 / (2 * RADIUS)
 
 
 def analytic_processed(tmp_path, direction):
@@ -190,10 +193,104 @@ def test_one_trace_gives_scaling_and_backlash_but_not_squareness(simulated_test)
         predict(diagnosis, [0.0], "cw")
 
 
-def test_diagnosis_refuses_a_trace_that_leaves_part_of_the_circle_out(tmp_path):
-    angles = np.arange(0.0, 270.0, 1.0)
-    trace = read_ballbar(write_trace(tmp_path / "t.csv", "cw", np.zeros(angles.size), angles))
-    with pytest.raises(MeasurementError, match="whole circle"):
+# -- partial arcs ---------------------------------------------------------------------------------
+
+ARC = np.arange(-20.0, 200.01, 0.5)  #: a lathe's 220 deg test in XZ (ISO 13041-6), the spindle side left out
+
+
+def test_partial_arc_figures_match_a_circle_fitted_to_the_points(tmp_path):
+    """G over a partial arc is the width about the least-squares circle of the arc as measured: the
+    linearised fit agrees with a free circle fitted to the measured points (Levenberg-Marquardt)."""
+    from postproc.fitting import fit_circle
+
+    deviations = SHAPES["ccw"](ARC) + setup(ARC)
+    trace = read_ballbar(write_trace(tmp_path / "t.csv", "ccw", deviations, ARC))
+    assert trace.arc == pytest.approx((340.0, 220.0))
+    points = trace.points()
+    free = fit_circle(points)
+    assert circular_deviation(trace) == pytest.approx(float(np.ptp(free.residuals)), abs=2e-6)
+
+
+def test_hysteresis_of_partial_arcs_is_taken_where_both_runs_measured(tmp_path):
+    ccw = read_ballbar(write_trace(tmp_path / "a.csv", "ccw", 0.001 + 0.0 * ARC, ARC, centered="true"))
+    later = ARC[ARC >= 30.0]
+    cw = read_ballbar(write_trace(tmp_path / "b.csv", "cw", 0.003 + 0.0 * later, later, centered="true"))
+    test = circular_test([ccw, cw])
+    assert test.hysteresis == pytest.approx(0.002, abs=1e-12)  # no interpolation across either gap
+
+
+def analytic_machine(angles, direction, scaling=(40e-6, -30e-6), backlash=(0.004, 0.006), squareness=25e-6,
+                     mismatch=0.0005, pivot=PIVOT):
+    """The model's reading, exactly (first order in the errors, second in the set-up)."""
+    k = 1.0 if direction == "cw" else -1.0
+    theta = np.radians(angles)
+    cos, sin = np.cos(theta), np.sin(theta)
+    dx, dz = np.sign(np.round(-k * sin, 12)), np.sign(np.round(k * cos, 12))
+    dx, dz = np.where(dx == 0, np.sign(np.round(cos, 12)), dx), np.where(dz == 0, np.sign(np.round(sin, 12)), dz)
+    e_x = scaling[0] * RADIUS * cos + squareness * RADIUS * sin - backlash[0] / 2 * dx + mismatch * k * sin
+    e_z = scaling[1] * RADIUS * sin - backlash[1] / 2 * dz
+    return (e_x * cos + e_z * sin - pivot[0] * cos - pivot[1] * sin
+            + (pivot[1] * cos - pivot[0] * sin) ** 2 / (2 * RADIUS))
+
+
+@pytest.mark.parametrize("start, span", [(-20.0, 220.0), (0.0, 180.0), (30.0, 150.0), (200.0, 200.0)])
+def test_the_centre_fitted_with_the_model_leaves_the_model_unbiased_on_any_arc(tmp_path, start, span):
+    """On a partial arc a separate circle fit takes part of the scaling with the centre (the class of
+    defect); fitted jointly, every parameter comes back exactly from noise-free traces."""
+    angles = np.arange(start, start + span + 0.01, 0.5)
+    traces = [read_ballbar(write_trace(tmp_path / f"{d}.csv", d, analytic_machine(angles, d), angles))
+              for d in ("ccw", "cw")]
+    diagnosis = diagnose(traces)
+    expected = {"scaling_x": 40e-6, "scaling_z": -30e-6, "backlash_x": 0.004, "backlash_z": 0.006,
+                "squareness": 25e-6, "servo_mismatch": 0.0005}
+    for name, value in expected.items():
+        assert getattr(diagnosis, name).value == pytest.approx(value, abs=1e-9), name
+    assert [e.value for e in diagnosis.centre_offset] == pytest.approx([-PIVOT[0], -PIVOT[1]], abs=1e-9)
+    # what a separate circle fit (constant and first harmonic) takes out of the scaling on this arc
+    theta = np.radians(angles)
+    harmonics = np.column_stack([np.ones_like(theta), np.cos(theta), np.sin(theta)])
+    scaling = RADIUS * 40e-6 * np.cos(theta) ** 2
+    taken = harmonics @ np.linalg.lstsq(harmonics, scaling, rcond=None)[0]
+    assert np.abs(scaling - taken).max() < np.abs(scaling).max()  # a separate fit would have eaten part of it
+
+
+def test_uncertainties_grow_as_the_arc_shrinks(tmp_path):
+    rng = np.random.default_rng(13)
+    sigmas = []
+    for span in (360.0, 220.0, 180.0):
+        angles = np.arange(-20.0, -20.0 + span, 0.5) if span < 360 else np.arange(0.0, 360.0, 0.5)
+        traces = [read_ballbar(write_trace(tmp_path / f"{d}{span:.0f}.csv", d,
+                                           analytic_machine(angles, d) + rng.normal(0, NOISE, angles.size), angles))
+                  for d in ("ccw", "cw")]
+        sigmas.append(diagnose(traces).scaling_z.sigma)
+    assert sigmas[0] < sigmas[1] < sigmas[2]
+
+
+def test_a_90_deg_arc_is_refused_naming_the_arc_and_the_parameter(tmp_path):
+    rng = np.random.default_rng(5)
+    angles = np.arange(0.0, 90.01, 0.5)
+    traces = [read_ballbar(write_trace(tmp_path / f"{d}.csv", d, analytic_machine(angles, d)
+                                       + rng.normal(0, NOISE, angles.size), angles)) for d in ("ccw", "cw")]
+    with pytest.raises(MeasurementError, match=r"\(90 deg from 0 to 90 deg\), scaling [XZ] \+-\d+(\.\d+)? ppm .* not "
+                                               r"determined: 3 sigma of the error it models is above 5 um"):
+        diagnose(traces)
+    result = invoke(*(t.path for t in traces), "--json")
+    assert result.exit_code == 3 and result.stdout == ""
+    assert "90 deg from 0 to 90 deg" in result.stderr and "--no-diagnosis" in result.stderr
+    figures_only = invoke(*(t.path for t in traces), "--json", "--no-diagnosis")
+    assert figures_only.exit_code == 0, figures_only.stderr
+    report = json.loads(figures_only.stdout)
+    assert report["scaling_x"] is None and report["circular_deviation_mm"]["ccw"] > 0
+    assert report["captured_arc_deg"]["cw"] == pytest.approx({"start": 0.0, "span": 90.0})
+
+
+def test_one_direction_on_a_half_circle_cannot_tell_backlash_from_the_set_up(tmp_path):
+    """Over 0..180 deg X travels one way only: in one run its backlash reads like a set-up offset."""
+    angles = np.arange(0.0, 180.01, 0.5)
+    rng = np.random.default_rng(8)
+    trace = read_ballbar(write_trace(tmp_path / "ccw.csv", "ccw", analytic_machine(angles, "ccw")
+                                     + rng.normal(0, NOISE, angles.size), angles))
+    with pytest.raises(MeasurementError, match="backlash X"):
         diagnose([trace])
 
 
@@ -232,14 +329,29 @@ def test_one_trace_nulls_what_needs_both_directions(simulated_test):
     assert report["scaling_x"] == pytest.approx(MACHINE.scaling_x, rel=0.05)
 
 
-def test_partial_trace_gets_iso_figures_and_no_diagnosis(tmp_path):
-    angles = np.arange(0.0, 180.0, 1.0)
-    path = write_trace(tmp_path / "t.csv", "cw", 0.001 * np.cos(2 * np.radians(angles)), angles, centered="true")
-    report = json.loads(invoke(path, "--json").stdout)
-    assert report["radial_deviation_mm"]["cw"] == pytest.approx({"min": -0.001, "max": 0.001}, abs=1e-12)
-    assert 0 < report["circular_deviation_mm"]["cw"] < 0.002  # its own centre takes some of cos 2 theta
-    assert report["scaling_x"] is None and report["fit_residual_um"] is None
-    assert any("whole circle" in note for note in report["notes"])
+@pytest.mark.parametrize("form", ["processed", "raw"])
+def test_220_deg_traces_are_diagnosed_not_an_internal_error(tmp_path, form):
+    """The IndexError class: every figure over a partial arc, processed and raw alike."""
+    paths = []
+    for direction, start in (("ccw", 200.0), ("cw", -20.0)):
+        path = str(tmp_path / f"{direction}.csv")
+        result = CliRunner().invoke(main, ["simulate", "ballbar", "--machine", str(SAMPLES / "machines" / "v40r-sim.toml"),
+                                           "--direction", direction, "--form", form, "--start-angle", str(start),
+                                           "--capture-arc", "220", "--overtravel", "2", "-o", path])
+        assert result.exit_code == 0, result.stderr
+        paths.append(path)
+    result = invoke(*paths, "--json")
+    assert (result.exit_code, result.stderr) == (0, "")
+    report = json.loads(result.stdout)
+    assert report["captured_arc_deg"]["ccw"]["span"] == pytest.approx(220.0, abs=0.6)
+    assert report["hysteresis_mm"] > 0 and report["bidirectional_circular_deviation_mm"] > 0
+    assert report["scaling_x"] == pytest.approx(30e-6, abs=4e-6)  # the sample machine: +30 / -20 ppm, 4 / 3 um
+    assert report["scaling_z"] == pytest.approx(-20e-6, abs=4e-6)
+    assert report["backlash_x_mm"] == pytest.approx(0.004, abs=0.0006)
+    assert report["backlash_z_mm"] == pytest.approx(0.003, abs=0.0006)
+    assert any("ISO 13041-6" in note for note in report["notes"])
+    text = invoke(*paths)
+    assert "ISO 230-4 (ISO 13041-6 for lathes)" in text.stdout and "220 deg from -20 to 200 deg" in text.stdout
 
 
 def test_human_report_on_stdout(simulated_test):
@@ -257,14 +369,11 @@ def test_bad_file_is_reported_with_its_line(tmp_path):
     assert result.stderr.startswith(f"{path}:3: error: direction = 'up'")
 
 
-def test_two_traces_of_one_direction_are_refused(simulated_test):
+def test_the_same_trace_twice_is_refused(simulated_test):
     result = invoke(simulated_test[0], simulated_test[0])
-    assert result.exit_code == 3 and "one ccw (G03) and one cw (G02)" in result.stderr
-
-
-def test_more_than_two_traces_is_a_usage_error(simulated_test):
+    assert result.exit_code == 3 and "the same trace given twice" in result.stderr
     result = invoke(*simulated_test, simulated_test[0])
-    assert result.exit_code == 2 and "one trace or a ccw and a cw trace" in result.stderr
+    assert result.exit_code == 3 and "the same trace given twice" in result.stderr
 
 
 @pytest.mark.parametrize("suffix", [".png", ".svg"])
@@ -291,3 +400,78 @@ def test_deviation_against_angle_plot(tmp_path, simulated_test):
     target = tmp_path / "angle.svg"
     plot_deviation_vs_angle([(t.direction, t.angles, t.deviations) for t in traces], str(target), "traces")
     assert target.stat().st_size > 1000
+
+
+# -- sanity checks: results no machine gives, with their likely cause ----------------------------------
+
+SAMPLE = {d: SAMPLES / "ballbar" / f"v40r-100-{d}.csv" for d in ("ccw", "cw")}
+HEMISHELL = str(SAMPLES / "programs" / "hemishell.nc")
+
+
+def edited(tmp_path, change) -> list[str]:
+    """The sample test's two traces with their text changed by ``change(direction, text)``."""
+    paths = []
+    for direction, path in SAMPLE.items():
+        target = tmp_path / path.name
+        target.write_text(change(direction, path.read_text()))
+        paths.append(str(target))
+    return paths
+
+
+def swapped(direction, text):
+    other = "cw" if direction == "ccw" else "ccw"
+    return text.replace(f"# direction = {direction}\n", f"# direction = {other}\n")
+
+
+def test_swapped_direction_labels_are_refused_by_compensators_and_named_by_ballbar(tmp_path, run):
+    paths = edited(tmp_path, swapped)
+    for plugin in ("parametric", "effective-angle", "ballbar-inverse"):
+        result = run("compensate", HEMISHELL, "--plugin", plugin, *(a for p in paths for a in ("--ballbar", p)))
+        assert result.exit_code == 3 and result.stdout == "", plugin
+        assert "are both negative" in result.stderr and "the ccw and cw labels look swapped" in result.stderr, plugin
+        assert "servo" in result.stderr or plugin == "ballbar-inverse"
+    forced = run("compensate", HEMISHELL, "--plugin", "parametric", "--force", *(a for p in paths for a in ("--ballbar", p)))
+    assert forced.exit_code == 0 and "look swapped" in forced.stderr and "warning:" in forced.stderr
+    report = invoke(*paths, "--json")
+    assert report.exit_code == 0 and "warning: backlash X -" in report.stderr
+    assert any("look swapped" in text for text in json.loads(report.stdout)["warnings"])
+    assert json.loads(report.stdout)["servo_lag_ms"] < 0  # the lag flips with the labels too
+
+
+def test_a_radius_that_is_not_the_bars_is_named(tmp_path, run):
+    """The sample test read as if the bar were 4 mm long: its scaling comes out 25 times too large."""
+    paths = edited(tmp_path, lambda d, text: text.replace("# radius_mm = 100\n", "# radius_mm = 4\n"))
+    result = run("compensate", HEMISHELL, "--plugin", "parametric", *(a for p in paths for a in ("--ballbar", p)))
+    assert result.exit_code == 3 and result.stdout == ""
+    assert "beyond 500 ppm" in result.stderr and "is radius_mm (4 mm) the bar's length" in result.stderr
+    assert "warning: scaling X +7" in invoke(*paths).stderr
+
+
+def test_a_mean_radius_error_is_named_as_the_wrong_radius(tmp_path):
+    angles = np.arange(0.0, 360.0, 1.0)
+    # a 100 mm bar with 100.2 in its header: -0.2 mm everywhere, and the machine's own +5 ppm mean scaling
+    paths = [write_trace(tmp_path / f"{d}.csv", d, analytic_machine(angles, d) - 0.2, angles) for d in ("ccw", "cw")]
+    result = invoke(*paths, "--json")
+    assert result.exit_code == 0
+    warnings = json.loads(result.stdout)["warnings"]
+    assert any("mean radius error of -199.5 um on the 100 mm radius: radius_mm does not match the bar's length" in w
+               for w in warnings), warnings
+
+
+def test_a_backlash_beyond_50_um_asks_for_the_units(tmp_path, run):
+    angles = np.arange(0.0, 360.0, 1.0)
+    paths = [write_trace(tmp_path / f"{d}.csv", d, analytic_machine(angles, d, backlash=(0.08, 0.004)), angles)
+             for d in ("ccw", "cw")]
+    result = run("compensate", HEMISHELL, "--plugin", "parametric", *(a for p in paths for a in ("--ballbar", p)))
+    assert result.exit_code == 3
+    assert "backlash X +80.0 um is beyond 50 um: are the deviations in mm?" in result.stderr
+
+
+def test_one_negative_backlash_is_a_warning_not_a_refusal(tmp_path, run):
+    """A control whose backlash compensation is set too high reads negative lost motion on that axis."""
+    angles = np.arange(0.0, 360.0, 1.0)
+    paths = [write_trace(tmp_path / f"{d}.csv", d, analytic_machine(angles, d, backlash=(-0.003, 0.004)), angles)
+             for d in ("ccw", "cw")]
+    result = run("compensate", HEMISHELL, "--plugin", "parametric", *(a for p in paths for a in ("--ballbar", p)))
+    assert result.exit_code == 0
+    assert "backlash X is negative (-3.00 um): the control's backlash compensation may be set too high" in result.stderr

@@ -114,11 +114,27 @@ BALLBAR = [
     ("no-rows", HEAD.encode(), "{f}: error: the file has no data rows"),
     ("duplicate-angle", (HEAD + ROWS + "360,0.002\n").encode(), "{f}:77: error: angle 360 deg (0 deg) again (first on line 5)"),
     ("implausible", (HEAD + "2.5,1.5\n" + ROWS).encode(),
-     "{f}:5: error: deviation 1.5 mm is beyond 1 mm: not a plausible ballbar reading"),
-    ("too-few", (HEAD + "0,0\n1,0\n").encode(), "{f}: error: 2 samples: a trace needs at least 3"),
+     "{f}:5: error: deviation 1.5 mm is beyond 1 mm: not a plausible ballbar reading (micrometres written as "
+     "millimetres?)"),
+    ("too-few", (HEAD + "0,0\n1,0\n").encode(),
+     "{f}: error: 2 samples: a trace needs at least 36, over at least 90 deg of arc"),
+    ("three-points", (HEAD + "0,0.001\n120,0.002\n240,0.001\n").encode(),
+     "{f}: error: 3 samples: a trace needs at least 36, over at least 90 deg of arc"),
+    ("35-samples", (HEAD + "".join(f"{a * 5},0.001\n" for a in range(35))).encode(),
+     "{f}: error: 35 samples: a trace needs at least 36, over at least 90 deg of arc"),
     ("gap", (HEAD + "0,0\n10,0\n20,0\n30,0\n").encode(),
-     "{f}: error: the trace covers too little of the circle (a gap of 330 deg) to find its set-up centre; give "
-     "'# centered = true' if it is already centred"),
+     "{f}: error: 4 samples: a trace needs at least 36, over at least 90 deg of arc"),
+    ("short-arc", (HEAD + "".join(f"{a * 0.5},0.001\n" for a in range(170))).encode(),
+     "{f}: error: the trace covers 84 deg from 0 to 84 deg: a trace needs at least 90 deg of arc (a lathe's test in "
+     "XZ runs about 220 deg)"),
+    ("raw-short-capture", (b"# postproc ballbar 1\n# radius_mm = 100\n# direction = cw\n# start_angle_deg = 0\n"
+                           b"# capture_arc_deg = 80\ndeviation_mm\n" + b"0.001\n" * 960),
+     "{f}: error: the trace covers 80 deg from 0 to 80 deg: a trace needs at least 90 deg of arc (a lathe's test in "
+     "XZ runs about 220 deg)"),
+    ("raw-few-readings", (b"# postproc ballbar 1\n# radius_mm = 100\n# direction = cw\n# start_angle_deg = 0\n"
+                          b"deviation_mm\n" + b"0.001\n" * 210),
+     "{f}: error: 35 samples (averaged from 210 readings, 6 each): a trace needs at least 36, over at least 90 deg "
+     "of arc"),
     ("raw-key-in-processed", HEAD.replace("angle_deg,", "# start_angle_deg = 0\nangle_deg,").encode() + ROWS.encode(),
      "{f}:4: error: start_angle_deg belongs to the raw form (angles are given here)"),
     ("raw-without-start", b"# postproc ballbar 1\n# radius_mm = 100\n# direction = ccw\ndeviation_mm\n0\n0\n0\n0\n0\n0\n",

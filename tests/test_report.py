@@ -326,3 +326,27 @@ def test_chromium_reports_a_broken_image_as_such(tmp_path):
     sizes = _rendered_sizes(page, tmp_path)
     assert min(sizes[0]["natural"]) > 0 and sizes[1]["natural"] == [0, 0]
 
+
+
+def test_a_partial_arc_is_reported_and_drawn_as_measured(tmp_path):
+    """A lathe's 220 deg test: the report names ISO 13041-6 and the arc, the plots do not close it."""
+    from postproc.measurements.ballbar import read_ballbar
+    from postproc.plotting import along_arc
+
+    paths = []
+    for direction, start in (("ccw", "200"), ("cw", "-20")):
+        path = str(tmp_path / f"{direction}.csv")
+        result = CliRunner().invoke(main, ["simulate", "ballbar", "--machine", str(SAMPLES / "machines" / "v40r-sim.toml"),
+                                           "--direction", direction, "--start-angle", start, "--capture-arc", "220",
+                                           "--overtravel", "2", "-o", path])
+        assert result.exit_code == 0, result.stderr
+        paths.append(path)
+    target = tmp_path / "partial.html"
+    code, stderr = _report("--ballbar", paths[0], "--ballbar", paths[1], "-o", str(target))
+    assert code == 0 and "warning" not in stderr and "error" not in stderr
+    text = target.read_text(encoding="utf-8")
+    assert "ISO 13041-6" in text and "220 deg from -20 to 200 deg" in text
+    assert "parametric diagnosis of the machine" in text
+    angles, deviations = along_arc(read_ballbar(paths[1]))
+    assert np.all(np.diff(angles[np.isfinite(angles)]) > 0)  # from the arc's start round to its end
+    assert angles[0] == pytest.approx(-20.0) and angles[-1] == pytest.approx(199.5)  # across 0, not across the gap

@@ -112,6 +112,25 @@ def test_scaling_makes_the_peanut_r_times_ax_cos2_plus_az_sin2(direction, tmp_pa
         assert np.abs(trace.deviations - expected).max() < 1e-7
 
 
+@pytest.mark.parametrize("direction, start", [("ccw", 200.0), ("cw", -20.0)])
+def test_a_partial_arc_is_captured_as_the_lathe_runs_it(direction, start, tmp_path):
+    """220 deg from -20 to 200 deg (ISO 13041-6), 2 deg over-travel: both forms read back on that arc,
+    with the backlash step where X reverses inside it and the same peanut as the whole circle."""
+    sim = simulation(x={"scaling": 3e-5, "backlash_mm": 0.004}, z={"scaling": -2e-5})
+    for form in ("processed", "raw"):
+        run = ballbar_test(sim, None, direction, form, start=start, capture=220.0, overtravel=2.0)
+        assert run.capture == 220.0 and run.angles[0] == pytest.approx(start)
+        text = trace_text(run, {})
+        assert ("# capture_arc_deg = 220" in text) == (form == "raw")
+        trace = read_ballbar(write(tmp_path, f"{form}.csv", text))
+        arc_start, span = trace.arc
+        assert (arc_start - 340.0) % 360.0 <= 0.5 and 219.0 < span <= 220.0
+        assert np.isnan(trace.at(270.0)) and not np.isnan(trace.at(90.0))
+        k = 1.0 if direction == "cw" else -1.0
+        step = trace.at(3.0) - trace.at(-3.0)  # X reverses at 0 deg
+        assert step == pytest.approx(k * 0.004 * math.cos(math.radians(3.0)), abs=3e-7)
+
+
 @pytest.mark.parametrize("direction, sign", [("ccw", -1.0), ("cw", 1.0)])
 @pytest.mark.parametrize("axis, reversals", [("x", (0.0, 180.0)), ("z", (90.0, 270.0))])
 def test_backlash_is_a_step_of_b_at_each_reversal_of_its_axis_signed_by_direction(direction, sign, axis, reversals,

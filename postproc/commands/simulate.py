@@ -1,6 +1,6 @@
 """``postproc simulate ballbar|cut|probe|calibrate|inspect``: the virtual lathe on the command line.
 
-Each subcommand writes one file in its docs/formats.md form (the surface of ``cut`` in postproc's
+Each subcommand writes one file in its formats.md form (the surface of ``cut`` in postproc's
 own form) to ``-o FILE`` or stdout; ``inspect`` prints the four figures, or with ``--json`` one
 JSON object with them and the deviation at each point. The machine, probe and set-up come
 from the ``[simulation]`` table of ``--machine FILE.toml`` (none: a perfect machine); options
@@ -87,9 +87,15 @@ def command() -> None:
 @click.option("--center-x", type=float, metavar="MM", help="Test centre x (radius mm).")
 @click.option("--center-z", type=float, metavar="MM", help="Test centre z.")
 @click.option("--feed", type=float, metavar="MM/MIN", help="Feed (default: the table's).")
+@click.option("--start-angle", type=float, metavar="DEG", help="theta of the first captured sample (default: the table's).")
+@click.option("--capture-arc", type=float, metavar="DEG",
+              help="The arc captured (default: the table's, 360; a lathe's XZ test: about 220).")
+@click.option("--overtravel", type=float, metavar="DEG",
+              help="Arc run before and after the capture (default: the table's, 180; a partial arc: a few).")
 @_output
-def ballbar(machine, seed, direction, form, radius, center_x, center_z, feed, output):
-    """A ballbar trace: the 720 deg test of docs/methods.md §3.1 in one direction."""
+def ballbar(machine, seed, direction, form, radius, center_x, center_z, feed, start_angle, capture_arc, overtravel,
+            output):
+    """A ballbar trace: the 720 deg test of docs/methods.md §3 in one direction, or a partial arc."""
     simulation, _ = load(machine)
     seed = simulation.seed if seed is None else seed
     centre = None
@@ -98,7 +104,8 @@ def ballbar(machine, seed, direction, form, radius, center_x, center_z, feed, ou
                   simulation.ballbar.center_z_mm if center_z is None else center_z)
     if radius is not None and not radius > 0:
         raise OptionError(f"--radius {radius:g}: the radius must be positive")
-    run = ballbar_test(simulation, generator(seed, f"ballbar-{direction}-{form}"), direction, form, radius, centre, feed)
+    run = ballbar_test(simulation, generator(seed, f"ballbar-{direction}-{form}"), direction, form, radius, centre, feed,
+                       start_angle, capture_arc, overtravel)
     write_atomically(output, trace_text(run, _provenance("ballbar", machine, seed)).encode())
 
 

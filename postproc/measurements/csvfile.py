@@ -118,12 +118,8 @@ def _decode(path: str, data: bytes) -> str:
         ) from None
 
 
-def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[str]]) -> Table:
-    """Read a file of the format whose first line is ``magic``.
-
-    ``allowed`` are the header keys the format knows; ``column_sets`` the header rows it
-    accepts (each a list of column names, in any order).
-    """
+def read_text(path: str) -> str:
+    """A measurement file's text: at most MAX_BYTES, UTF-8 (a BOM dropped), refused otherwise."""
     try:
         size = os.path.getsize(path)
         if size > MAX_BYTES:
@@ -131,7 +127,16 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
         data = Path(path).read_bytes()
     except OSError as exc:
         raise MeasurementError(f"cannot read the file: {exc.strerror}", Location(path)) from None
-    lines = _decode(path, data).splitlines()
+    return _decode(path, data)
+
+
+def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[str]]) -> Table:
+    """Read a file of the format whose first line is ``magic``.
+
+    ``allowed`` are the header keys the format knows; ``column_sets`` the header rows it
+    accepts (each a list of column names, in any order).
+    """
+    lines = read_text(path).splitlines()
     first = lines[0].strip()
     if first != magic:
         other = MAGICS.get(first)

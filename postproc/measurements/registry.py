@@ -2,7 +2,8 @@
 
 Readers come from plugins (the ``postproc_measurement_readers`` hook), the built-in ones
 included. A file is read by the first reader of its kind that accepts it; a file nobody
-accepts is refused with the list of formats that were tried.
+accepts is refused with the list of formats that were tried. A ballbar trace is held to the
+minimum evidence (36 samples over 90 deg of arc) whichever reader made it.
 """
 
 from __future__ import annotations
@@ -47,7 +48,13 @@ def read(path: str, kind: str, readers: list[MeasurementReader], context: ReadCo
     candidates = [reader for reader in readers if reader.kind == kind]
     for reader in candidates:
         if reader.accepts(path):
-            return reader.read(path, context)
+            found = reader.read(path, context)
+            if kind == "ballbar":
+                from .ballbar import BallbarTrace, check_evidence
+
+                if isinstance(found, BallbarTrace):
+                    check_evidence(found)  # whichever reader made it
+            return found
     names = ", ".join(reader.name for reader in candidates) or "none installed"
     try:
         open(path, "rb").close()

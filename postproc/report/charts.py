@@ -61,16 +61,11 @@ def polar(traces: Sequence[BallbarTrace], caption: str) -> Image:
 
 
 def against_angle(series: Sequence[tuple[str, np.ndarray, np.ndarray]], caption: str) -> Image:
-    """Deviation (um) against theta; ``series`` are (label, angles_deg, deviations_mm)."""
+    """Deviation (um) against theta; ``series`` are (label, angles_deg, deviations_mm), each in
+    the order to draw it (a partial arc from its start, NaN at its gaps: plotting.along_arc)."""
     from ..plotting import plot_deviation_vs_angle
 
-    ordered = [(label, *_by_angle(angles, values)) for label, angles, values in series]
-    return png_image(_through_file(plot_deviation_vs_angle, ordered), "ballbar deviation against angle", caption)
-
-
-def _by_angle(angles: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    order = np.argsort(angles)
-    return np.asarray(angles)[order], np.asarray(values)[order]
+    return png_image(_through_file(plot_deviation_vs_angle, list(series)), "ballbar deviation against angle", caption)
 
 
 def probe_deviations(s: np.ndarray, measured: np.ndarray, cleaned: np.ndarray, kept: np.ndarray, caption: str) -> Image:

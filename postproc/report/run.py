@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..ballbar_analysis import CircularTest, Diagnosis, circular_test, diagnose
+from ..ballbar_analysis import CircularTest, Diagnosis, centred, circular_test, diagnose, plausibility
 from ..diagnostics import EXIT_BAD_INPUT, EXIT_REFUSED, MeasurementError, PostprocError, Reporter, SafetyError
 from ..figures import Figures, figures
 from ..measurements.ballbar import BallbarTrace, pair
@@ -82,7 +82,9 @@ class Run:
     summary: Summary | None = None  #: of the compensation
     refused: str | None = None  #: why the program could not be compensated
     test: CircularTest | None = None  #: ISO 230-4 figures
+    test_traces: tuple[BallbarTrace, ...] = ()  #: the traces of the test, centred as the diagnosis found
     diagnosis: Diagnosis | None = None
+    undiagnosed: str | None = None  #: why there is no diagnosis
     machine: prediction.Machine | None = None  #: the diagnosis as a virtual lathe
     prediction: prediction.Prediction | None = None  #: along the program's profile
     when: dt.datetime = field(default_factory=provenance.moment)  #: the report's time
@@ -229,13 +231,17 @@ def _analyse(run: Run) -> None:
         return
     test, notes = _test_traces(run)
     run.notes += notes
-    if all(trace.full for trace in test):
-        try:
-            run.diagnosis = diagnose(test)
-        except MeasurementError as exc:
-            run.notes.append(f"no diagnosis: {exc.message}")
+    try:
+        run.diagnosis = diagnose(test)
+    except MeasurementError as exc:
+        run.undiagnosed = exc.message
+        run.notes.append(f"no diagnosis: {exc.message}")
     if run.diagnosis is not None:
+        problems, warnings = plausibility(run.diagnosis)
+        run.notes += problems + warnings
+        test = tuple(centred(test, run.diagnosis))
         run.machine = prediction.machine_of(run.diagnosis, test[0].centre)
+    run.test_traces = test
     try:
         run.test = circular_test(test)
     except MeasurementError as exc:

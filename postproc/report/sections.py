@@ -30,8 +30,10 @@ import os
 import numpy as np
 
 from ..ballbar_analysis import predict
+from ..ballbar_fit import arc_text
 from ..diagnostics import Reporter
 from ..measurements.ballbar import BallbarTrace
+from ..plotting import along_arc
 from ..probing import touched_points
 from . import charts, fitted, provenance
 from .document import Document, Part, Section, Table, Text
@@ -79,22 +81,27 @@ def _ballbar(run: Run) -> Section:
         centre = trace.setup_centre
         rows.append((trace.path, f"{trace.direction} ({'G02' if trace.cw else 'G03'})", f"{trace.radius:g}",
                      f"{trace.centre[0]:g}, {trace.centre[1]:g}", "" if trace.feed is None else f"{trace.feed:g}",
-                     str(len(trace.angles)), "raw" if trace.raw else "processed",
+                     str(len(trace.angles)), arc_text(trace), "raw" if trace.raw else "processed",
                      "not removed (centered)" if trace.centered else f"{centre[0] * 1000:+.2f}, {centre[1] * 1000:+.2f}"))
         run.figure(f"ballbar trace {trace.direction}: {trace.path}", trace.deviations)
     parts: list[Part] = [
-        Table(("file", "direction", "radius (mm)", "centre x, z (mm)", "feed (mm/min)", "samples", "form",
-               "set-up centre removed x, z (um)"), tuple(rows), "ballbar traces"),
+        Table(("file", "direction", "radius (mm)", "centre x, z (mm)", "feed (mm/min)", "samples", "captured arc",
+               "form", "set-up centre removed x, z (um)"), tuple(rows), "ballbar traces"),
         charts.polar(traces, "The traces about the nominal circle, seen from +Y (Z to the right, X up); "
                              "the deviation is magnified."),
     ]
-    series = [(_trace_label(trace, traces), trace.angles, trace.deviations) for trace in traces]
+    series = [(_trace_label(trace, traces), *along_arc(trace)) for trace in traces]
     if run.diagnosis is not None:
-        grid = np.arange(0.0, 360.0, 1.0)
-        series += [(f"{direction} model (diagnosis)", grid, predict(run.diagnosis, grid, direction))
-                   for direction in run.diagnosis.directions]
+        for trace in run.test_traces:
+            start, span = trace.arc
+            grid = start + np.linspace(0.0, span, max(int(span), 2) + 1)
+            series.append((f"{trace.direction} model (diagnosis)", grid,
+                           predict(run.diagnosis, grid, trace.direction, trace.radius)))
+    partial = [f"{t.path}: {arc_text(t)}" for t in traces if t.arc[1] < 360.0]
     parts.append(charts.against_angle(series, "Deviation against theta (0 deg = +X, 90 deg = +Z), set-up centre removed; "
-                                              "with the diagnosed model where there is one."))
+                                              "with the diagnosed model where there is one."
+                                      + (f" Partial arcs, drawn as measured (ISO 13041-6): {'; '.join(partial)}."
+                                         if partial else "")))
     return Section("ballbar", "Ballbar traces", parts)
 
 
@@ -176,7 +183,12 @@ def _iso(run: Run) -> Section | None:
         if test.hysteresis is not None:
             rows.append(("G(b), bidirectional circular deviation", f"{test.bidirectional_deviation * 1000:.3f}"))
             rows.append(("H, circular hysteresis", f"{test.hysteresis * 1000:.3f}"))
-        parts.append(Table(("ISO 230-4", "um"), tuple(rows), "ISO 230-4 circular test", key="iso-230-4"))
+        partial = [f"{t.path}: {arc_text(t)}" for t in run.test_traces if t.arc[1] < 360.0]
+        if partial:
+            rows.append(("captured arcs (partial: ISO 13041-6, the lathe's test code)", "; ".join(partial)))
+        parts.append(Table(("ISO 230-4 / ISO 13041-6 (lathes)", "um"), tuple(rows),
+                           "ISO 230-4 circular test (ISO 13041-6 for lathes), over the arcs as measured",
+                           key="iso-230-4"))
     diagnosis = run.diagnosis
     if diagnosis is not None:
         entries = {"scaling_x": diagnosis.scaling_x, "scaling_z": diagnosis.scaling_z,
@@ -194,8 +206,8 @@ def _iso(run: Run) -> Section | None:
         parts.append(Text("Model: e_x = a_x (x - xc) + s (z - zc) - (b_x / 2) sign(v_x) - m v_x / |v|, "
                           "e_z = a_z (z - zc) - (b_z / 2) sign(v_z), about the test centre (xc, zc).", "note"))
     else:
-        parts.append(Text("No parametric diagnosis: it needs traces round the whole circle.", "note"))
-    return Section("iso", "ISO 230-4 figures and the error diagnosis", parts)
+        parts.append(Text(f"No parametric diagnosis: {run.undiagnosed or 'the traces cannot support one'}.", "note"))
+    return Section("iso", "ISO 230-4 / ISO 13041-6 figures and the error diagnosis", parts)
 
 
 # ---------------------------------------------------------------- fitted models

@@ -32,11 +32,15 @@ in radius coordinates of the work coordinate system the part programs use.
   lag only moves the tool along its path; a mismatch between the axes distorts it, by an
   amount that grows with the feed and flips with the direction of motion.
 
-``[simulation.ballbar]``: the 720 deg test of docs/methods.md §3.1.
+``[simulation.ballbar]``: the 720 deg test of docs/methods.md §3, or a partial arc.
 
 - ``radius_mm`` (100), ``center_x_mm``, ``center_z_mm`` (0, 0): nominal test circle.
 - ``feed_mm_min`` (1000).
 - ``start_angle_deg`` (0): theta of the first captured sample.
+- ``capture_arc_deg`` (360): the arc captured, from the start in the run's direction (a
+  lathe's XZ test, ISO 13041-6: about 220, the turret stopping short of the spindle).
+- ``overtravel_deg`` (180): the arc run before and after the capture (the full test's pre-
+  and over-travel; a partial arc has room for a few degrees only).
 - ``setup_offset_x_mm``, ``setup_offset_z_mm`` (0, 0): the pivot's position minus the
   nominal centre (the set-up error the reader removes; it reports the path's centre as seen
   from the pivot, i.e. minus this).
@@ -79,7 +83,7 @@ in radius coordinates of the work coordinate system the part programs use.
 - ``tool_y_mm`` (0): the tool tip's height off the Y = 0 plane; the tip cuts radius
   ``sqrt(x^2 + y^2)`` and never reaches the spindle axis.
 - ``nub_height_mm`` (0): the stock the previous pass left; where the tool did not reach the
-  axis, a nub this high remains (docs/methods.md §9.5).
+  axis, a nub this high remains (docs/methods.md §9).
 - ``spindle_rpm`` (1000): converts feeds per revolution (G99) into mm/min; G96 is not modelled.
 - ``step_mm`` (0.02): spacing of the surface polyline.
 
@@ -126,6 +130,8 @@ class Ballbar:
     center_z_mm: float = _key(0.0)
     feed_mm_min: float = _key(1000.0, POSITIVE)
     start_angle_deg: float = _key(0.0)
+    capture_arc_deg: float = _key(360.0, POSITIVE)
+    overtravel_deg: float = _key(180.0, NONNEGATIVE)
     setup_offset_x_mm: float = _key(0.0)
     setup_offset_z_mm: float = _key(0.0)
     noise_mm: float = _key(0.0, NONNEGATIVE)

@@ -10,10 +10,11 @@ from one move to the next); the surface is what the tool tip leaves along the pr
    deviation);
 3. the tool tip stands ``tool_y`` off the Y = 0 plane, so it turns radius
    ``rho = sqrt(x^2 + tool_y^2)``;
-4. the nub: where the profile starts or ends on the spindle axis, the tool only comes as
-   close to it as rho at that end (a tool that crosses the axis is cut where it crosses);
-   the material inside stays, ``nub_height`` above the end along the outward normal's Z
-   sense, as a flat-topped cylinder. With no nub height the gap is closed flat.
+4. the nub: where the profile starts or ends on the spindle axis (within ON_AXIS_MM of it:
+   a compensated profile's pole moves by microns), the tool only comes as close to it as rho
+   at that end (a tool that crosses the axis is cut where it crosses); the material inside
+   stays, ``nub_height`` above the end along the outward normal's Z sense, as a flat-topped
+   cylinder. With no nub height the gap is closed flat.
 
 The tool is a point (no nose radius: the programmed path is the tip's path, G40).
 """
@@ -28,6 +29,8 @@ from .errors import Machine
 from .nominal import Nominal
 from .path import sample
 from .surface import Turned
+
+ON_AXIS_MM = 0.01  #: a profile end this close to the spindle axis starts or ends on it
 
 
 def cut(moves: list[Move], nominal: Nominal, simulation: Simulation) -> Turned:
@@ -45,15 +48,15 @@ def cut(moves: list[Move], nominal: Nominal, simulation: Simulation) -> Turned:
     tip, outward = tip[keep], outward[keep]
 
     start, end = nominal.profile.segments[0].start, nominal.profile.segments[-1].end
-    if abs(start[0]) < 1e-9:
+    if abs(start[0]) < ON_AXIS_MM:
         tip = _from_axis(tip)
-    if abs(end[0]) < 1e-9:
+    if abs(end[0]) < ON_AXIS_MM:
         tip = _from_axis(tip[::-1])[::-1]
     rho = np.hypot(tip[:, 0], setup.tool_y_mm)
     surface = np.column_stack([rho, tip[:, 1]])
-    if abs(start[0]) < 1e-9:
+    if abs(start[0]) < ON_AXIS_MM:
         surface = _nub(surface, float(np.sign(outward[0, 1])), setup.nub_height_mm)
-    if abs(end[0]) < 1e-9:
+    if abs(end[0]) < ON_AXIS_MM:
         surface = _nub(surface[::-1], float(np.sign(outward[-1, 1])), setup.nub_height_mm)[::-1]
     return Turned(surface)
 

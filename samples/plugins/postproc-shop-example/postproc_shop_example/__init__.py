@@ -8,7 +8,7 @@ from postproc.compensator import Compensator, Measurements, Option
 from postproc.diagnostics import Location, MeasurementError
 from postproc.geometry import Arc
 from postproc.hookspecs import hookimpl
-from postproc.measurements.ballbar import BallbarTrace, centre_offset
+from postproc.measurements.ballbar import BallbarTrace, make_trace
 from postproc.measurements.registry import MeasurementReader, first_line
 
 
@@ -64,14 +64,10 @@ def _read_shopbar(path: str, context) -> BallbarTrace:
             angle, deviation_um = (float(cell) for cell in line.split(";"))
         except ValueError:
             raise MeasurementError(f"expected ANGLE;DEV_UM, not {line!r}", Location(path, number)) from None
-        angles.append(angle % 360.0)
+        angles.append(angle)
         deviations.append(deviation_um / 1000.0)
-    order = np.argsort(angles)
-    angles, deviations = np.array(angles)[order], np.array(deviations)[order]
-    setup = centre_offset(angles, deviations)
-    theta = np.radians(angles)
-    deviations = deviations - setup[0] * np.cos(theta) - setup[1] * np.sin(theta)
-    return BallbarTrace(path, radius, direction, (0.0, 0.0), angles, deviations, setup)
+    # sorted, held to the minimum evidence and centred as postproc's own reader does
+    return make_trace(path, radius, direction, angles, deviations)
 
 
 @hookimpl
