@@ -17,6 +17,7 @@ import sys
 import click
 
 from ..diagnostics import OptionError, Reporter
+from ..features import MIN_TOUCHES
 from ..output import STDOUT, write_atomically
 from ..simulator import ballbar_test, calibrate, cut, generator, inspect, load, nominal, probe_profile, read_program
 from ..simulator.files import calibration_text, probe_text, read_surface, surface_text, trace_text
@@ -117,16 +118,24 @@ def cut_command(program, from_line, to_line, material, machine, output):
 @_profile_options
 @click.option("--surface", metavar="FILE", help="The surface to probe (from 'simulate cut'); default: cut it now.")
 @click.option("--points", type=int, metavar="N", help="Touches along the profile (default: the table's).")
+@click.option("--inset", type=float, metavar="MM",
+              help="Spread the touches over the profile's features as probe-program does, this far from each "
+                   "feature's ends (default: evenly along the whole profile, both ends included).")
+@click.option("--per-feature", type=int, default=MIN_TOUCHES, show_default=True, metavar="N",
+              help="With --inset: the fewest touches on each feature.")
 @_machine
 @_seed
 @_output
-def probe(program, from_line, to_line, material, surface, points, machine, seed, output):
+def probe(program, from_line, to_line, material, surface, points, inset, per_feature, machine, seed, output):
     """A probe file: touches spread along the profile, the datum before and after."""
     points = _count(points)
+    if inset is not None and not (inset >= 0 and per_feature >= 1):
+        raise OptionError(f"--inset {inset:g} --per-feature {per_feature}: the inset must not be negative and each "
+                          "feature needs a touch at least")
     simulation, name, moves, profile_of = _setup(machine, program, from_line, to_line, material)
     seed = simulation.seed if seed is None else seed
     run = probe_profile(_surface(surface, simulation, moves, profile_of), profile_of, simulation,
-                        generator(seed, "probe"), points)
+                        generator(seed, "probe"), points, inset, per_feature)
     write_atomically(output, probe_text(run, _provenance("probe", machine, seed, name)).encode())
 
 

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..diagnostics import Location, OptionError, Reporter
+from ..features import MIN_TOUCHES, Feature, Spread, SpreadError, features, spread
 from ..geometry import Profile, segment_of
 from ..motion import ARC, CONTOUR, CYCLE, LINE, Move
 from ..profile import DEFAULT, MachineProfile
@@ -102,15 +103,42 @@ class Nominal:
         """Unit normals out of the material at places given as (segment index, parameter)."""
         return self.outward_sign * self.profile.left_normals(np.asarray(segment), np.asarray(param, dtype=float))
 
+    def places(self, s) -> tuple[np.ndarray, np.ndarray]:
+        """Points and outward normals of the profile at arc lengths ``s`` (at a join: the later segment's)."""
+        offsets = self.profile.offsets
+        s = np.atleast_1d(np.asarray(s, dtype=float))
+        segment = np.clip(np.searchsorted(offsets, s, side="right") - 1, 0, len(self.profile.segments) - 1)
+        param = np.clip((s - offsets[segment]) / np.diff(offsets)[segment], 0.0, 1.0)
+        points = np.array([self.profile.segments[i].point_at(t) for i, t in zip(segment, param)]).reshape(-1, 2)
+        return points, self.outward(segment, param)
+
     def stations(self, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``count`` places evenly spaced along the profile, both ends included: points, outward normals, s."""
-        offsets = self.profile.offsets
         s = np.linspace(0.0, self.profile.length, count)
-        segment = np.clip(np.searchsorted(offsets, s, side="right") - 1, 0, len(self.profile.segments) - 1)
-        lengths = np.diff(offsets)
-        param = np.clip((s - offsets[segment]) / lengths[segment], 0.0, 1.0)
-        points = np.array([self.profile.segments[i].point_at(t) for i, t in zip(segment, param)])
-        return points, self.outward(segment, param), s
+        return *self.places(s), s
+
+    @property
+    def features(self) -> tuple[Feature, ...]:
+        """The profile's lines and arcs (:mod:`postproc.features`), named by their source lines."""
+        return features(self.profile, tuple(move.line for move in self.moves))
+
+    def spread(self, count: int, inset: float = 0.0, minimum: int = MIN_TOUCHES, radius: float = 0.0,
+               clearance: float = 0.0) -> Spread:
+        """``count`` touches over the features, ``minimum`` on each, clear of their ends by ``inset``
+        and of concave corners by what a stylus of ``radius`` approaching from ``clearance`` out
+        needs (:func:`postproc.features.spread`).
+
+        :raises OptionError: no feature has room, or ``count`` is below the minimum on each."""
+        try:
+            return spread(self.features, count, inset, minimum, outward_sign=self.outward_sign, radius=radius,
+                          clearance=clearance)
+        except SpreadError as exc:
+            if exc.wanted is None:
+                raise OptionError(f"--inset {inset:g} leaves nothing of the {self.profile.length:.3f} mm profile to "
+                                  "probe (a feature also keeps clear of a concave corner by what the stylus needs)",
+                                  Location(self.program)) from None
+            raise OptionError(f"--points {count}: {exc}; give --points {exc.wanted} or more, or fewer per feature "
+                              "(--per-feature)", Location(self.program)) from None
 
 
 def nominal(moves: list[Move], first_line: int | None = None, last_line: int | None = None, material: str = "axis",
