@@ -38,11 +38,46 @@ _ON_AXIS = 1e-9  #: mm: a coordinate this close to 0 is on the spindle axis
 
 def read_program(path: str, profile: MachineProfile = DEFAULT, reporter: Reporter | None = None) -> tuple[str, list[Move]]:
     """The program's name and the moves the control runs, in order, with known ends."""
+    name, moves, _ = run_program(path, profile, reporter)
+    return name, moves
+
+
+def run_program(path: str, profile: MachineProfile = DEFAULT,
+                reporter: Reporter | None = None) -> tuple[str, list[Move], dict[int, tuple[float, float]]]:
+    """As :func:`read_program`, and what its G10 blocks do to the wear offsets (:func:`wear_added`)."""
     reporter = reporter if reporter is not None else Reporter(sys.stderr)
+    moves, settings = [], []
     with Source(path) as source:
-        moves = [move for step in interpret_source(source, profile, reporter) for move in step.moves]
+        for step in interpret_source(source, profile, reporter):
+            moves.extend(step.moves)
+            if ("G", "10") in step.block.codes:
+                settings.append(step)
         name = source.name
-    return name, [move for move in moves if move.role != CONTOUR and move.kind != CYCLE and move.known]
+    return (name, [move for move in moves if move.role != CONTOUR and move.kind != CYCLE and move.known],
+            wear_added(settings, profile))
+
+
+def wear_added(steps, profile: MachineProfile = DEFAULT) -> dict[int, tuple[float, float]]:
+    """What a program's G10 blocks do to each tool wear offset (P1 and up), as (x, z) radius mm:
+    U and W add to it, X and Z set it (X, U diameters on a diameter-programmed machine), in the
+    units in force. The virtual lathe's wear offsets hold 0 before the program runs."""
+    wear: dict[int, list[float]] = {}
+    for step in steps:
+        words = dict(step.block.codes)
+        if ("G", "10") not in step.block.codes or "P" not in words:
+            continue
+        number = int(float(words["P"]))
+        if not 0 < number < 10000:
+            continue  # a work shift or a geometry offset: not modelled
+        unit = 25.4 if step.modal.inch else 1.0
+        scale = unit / (2.0 if profile.diameter_x else 1.0)
+        held = wear.setdefault(number, [0.0, 0.0])
+        for axis, (absolute, added, factor) in enumerate((("X", "U", scale), ("Z", "W", unit))):
+            if absolute in words:
+                held[axis] = float(words[absolute]) * factor
+            if added in words:
+                held[axis] += float(words[added]) * factor
+    return {number: (x, z) for number, (x, z) in wear.items()}
 
 
 def on_axis(move: Move) -> bool:
