@@ -2,18 +2,22 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
-from postproc.compensator import Measurements
-from postproc.diagnostics import ModelError
+from postproc.ballbar_analysis import diagnose
+from postproc.compensator import Measurements, Piece
+from postproc.diagnostics import MeasurementError, ModelError
+from postproc.geometry import Line
 from postproc.hookspecs import hookimpl
 from postproc.measurements.ballbar import BallbarTrace
 from postproc_plugins.parametric import ErrorFunctions
 
 TABLES = ("x+", "x-", "z+", "z-")  #: axis and direction of its travel
 OUTER = 0.1  #: share of a table's span at each end whose straight line extrapolates it
+REFERENCE = ("scaling_x", "scaling_z", "backlash_x", "backlash_z", "squareness")  #: the physical model's parameters
+WORSE_UM = 0.05  #: a predicted figure this much above the uncompensated one counts as worse
 
 
 def _fold_x(angles: np.ndarray) -> np.ndarray:
@@ -68,6 +72,19 @@ class EffectiveAngle(ErrorFunctions):
     leak in between: the method is generic but not exact (Table 6.7). The report gives the
     figures of the traces minus what the tables predict for them.
 
+    An axis that stands still during a move keeps the backlash of its last direction of
+    travel, so it takes that direction's table (the direction each piece carries); only
+    where no move before has told which way it last went does it take the mean of both.
+
+    Predicted on each program: the per-axis error model fitted to the same traces (the
+    parametric diagnosis of ``postproc ballbar``: scaling, backlash, squareness) stands in
+    for the machine; along every corrected feed move inside the test square, the error
+    normal to the move is summed as the program stands and as the tables leave it (length
+    weighted). If the four figures (mean, mean |e|, RMS, sigma) say the tables would leave
+    the moves worse than no compensation in any of them, a warning gives both sets of
+    predicted figures (the other axis's error leaking into each table, methods.md 7-8;
+    ``parametric`` has no such spread).
+
     What it needs: ``--ballbar`` with a CCW and a CW trace of one test, each round the whole
     circle. Outside the square the test circle spans the tables are held at their ends, with
     a warning naming the first block that goes there, unless ``--option extrapolate=true``:
@@ -86,6 +103,31 @@ class EffectiveAngle(ErrorFunctions):
         ccw, cw = self._traces(measurements)
         self.tables = tables(ccw, cw)
         self._score(ccw, cw)
+        self.reference = reference_model(ccw, cw)
+        self.prediction = Prediction()
+
+    def correct_many(self, pieces: Sequence[Piece]) -> list[np.ndarray | None]:
+        shifts = super().correct_many(pieces)
+        if self.reference is not None:
+            self.prediction.add(pieces, shifts, self.reference, self.centre, self.radius)
+        return shifts
+
+    def finish(self) -> None:
+        """Warn when the tables are predicted to leave this program worse than no compensation."""
+        before, after = self.prediction.figures()
+        self.prediction = Prediction()
+        if before is None:
+            return
+        worse = [name for name in ("mean", "mean |e|", "RMS", "sigma")
+                 if abs(after[name]) > abs(before[name]) + WORSE_UM]
+        if worse:
+            shown = ", ".join(f"{name} {before[name]:+.2f} -> {after[name]:+.2f} um" if name == "mean" else
+                              f"{name} {before[name]:.2f} -> {after[name]:.2f} um" for name in before)
+            self.context.reporter.warn(
+                f"{self.name}: predicted to leave this program's feed moves worse than no compensation in "
+                f"{' and '.join(worse)} ({shown}, normal to the moves inside the test square, with the parametric "
+                "fit of the same traces as the machine): the tables mix each axis's error with the other's; "
+                "parametric has no such spread")
 
     def _lookup(self, table: str, at: np.ndarray) -> np.ndarray:
         offsets, errors = self.tables[table]
@@ -108,7 +150,7 @@ class EffectiveAngle(ErrorFunctions):
         return result[0], result[1]
 
     def model(self) -> dict[str, Any]:
-        return {**self._extent(), "fit": self.fit_figures,
+        return {**self._extent(), "fit": self.fit_figures, "reference": self.reference,
                 "tables": {name: {"offset_mm": offsets.tolist(), "error_mm": errors.tolist()}
                            for name, (offsets, errors) in self.tables.items()}}
 
@@ -122,10 +164,91 @@ class EffectiveAngle(ErrorFunctions):
         for name, (offsets, errors) in self.tables.items():
             if offsets.ndim != 1 or offsets.shape != errors.shape or offsets.size < 2 or np.any(np.diff(offsets) < 0):
                 raise ModelError(f"{self.name}: the saved table {name} is not a table of increasing offsets")
+        self.reference = _reference_of(model.get("reference"), self.name)
+        self.prediction = Prediction()
 
     def report(self) -> dict[str, Any]:
         largest = {name: float(np.max(np.abs(errors))) for name, (_, errors) in self.tables.items()}
         return {**super().report(), "largest_error_mm": largest}
+
+
+def reference_model(ccw: BallbarTrace, cw: BallbarTrace) -> dict[str, float] | None:
+    """The parametric diagnosis of the traces (``postproc ballbar``) as the machine the prediction
+    runs on: scaling, backlash, squareness. None when the traces cannot be diagnosed."""
+    try:
+        diagnosis = diagnose([ccw, cw])
+    except MeasurementError:
+        return None
+    return {name: getattr(diagnosis, name).value for name in REFERENCE}
+
+
+def _reference_of(saved: Any, name: str) -> dict[str, float] | None:
+    if saved is None:
+        return None
+    try:
+        return {key: float(saved[key]) for key in REFERENCE}
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ModelError(f"{name}: the saved reference model is incomplete ({exc.__class__.__name__}: {exc})") from None
+
+
+def _normals(pieces: Sequence[Piece], points: np.ndarray, counts: list[int]) -> np.ndarray:
+    """The unit normal to the left of the direction of travel at every point of the pieces."""
+    normals = np.empty_like(points)
+    first = 0
+    for piece, count in zip(pieces, counts):
+        segment, rows = piece.segment, slice(first, first + count)
+        if type(segment) is Line:
+            tx, tz = segment.direction
+            normals[rows] = (-tz, tx)
+        else:  # the left normal of an arc points to its centre for G02, away from it for G03
+            radial = points[rows] - (segment.xc, segment.zc)
+            radial /= np.hypot(radial[:, 0], radial[:, 1])[:, None]
+            normals[rows] = -radial if segment.sweep > 0 else radial
+        first += count
+    return normals
+
+
+class Prediction:
+    """The error normal to the corrected moves, summed as the program stands and as the tables
+    leave it, on the reference machine, weighted by length."""
+
+    def __init__(self):
+        self.sums = np.zeros((2, 4))  # (before, after) x (weight, sum, sum |e|, sum e^2)
+
+    def add(self, pieces: Sequence[Piece], shifts: list[np.ndarray | None], reference: dict[str, float],
+            centre: tuple[float, float], radius: float) -> None:
+        chosen = [(piece, shift) for piece, shift in zip(pieces, shifts) if shift is not None]
+        if not chosen:
+            return
+        counts = [len(piece.t) for piece, _ in chosen]
+        points = np.concatenate([piece.points for piece, _ in chosen])
+        shift = np.concatenate([shift for _, shift in chosen])
+        weight = np.repeat([piece.segment.length / len(piece.t) for piece, _ in chosen], counts)
+        u, w = points[:, 0] - centre[0], points[:, 1] - centre[1]
+        inside = (np.abs(u) <= radius) & (np.abs(w) <= radius)
+        if not inside.any():
+            return
+        dx = np.repeat([float(piece.x_direction) for piece, _ in chosen], counts)
+        dz = np.repeat([float(piece.z_direction) for piece, _ in chosen], counts)
+        e_x = reference["scaling_x"] * u + reference["squareness"] * w - 0.5 * reference["backlash_x"] * dx
+        e_z = reference["scaling_z"] * w - 0.5 * reference["backlash_z"] * dz
+        normal = _normals([piece for piece, _ in chosen], points, counts)
+        before = e_x * normal[:, 0] + e_z * normal[:, 1]
+        after = before + np.einsum("ij,ij->i", shift, normal)
+        weight = weight * inside
+        for row, e in enumerate((before * 1000.0, after * 1000.0)):
+            self.sums[row] += (weight.sum(), weight @ e, weight @ np.abs(e), weight @ (e * e))
+
+    def figures(self) -> tuple[dict[str, float] | None, dict[str, float] | None]:
+        """(before, after): mean, mean |e|, RMS and sigma in um, or None when nothing was summed."""
+        if self.sums[0, 0] <= 0.0:
+            return None, None
+        found = []
+        for total, plain, absolute, square in self.sums:
+            mean, rms = plain / total, float(np.sqrt(square / total))
+            found.append({"mean": mean, "mean |e|": absolute / total, "RMS": rms,
+                          "sigma": float(np.sqrt(max(rms * rms - mean * mean, 0.0)))})
+        return found[0], found[1]
 
 
 @hookimpl

@@ -125,6 +125,10 @@ class Compensator:
         interpret, and the provenance header names them."""
         return []
 
+    def finish(self) -> None:
+        """The program has been corrected: warn about what only the whole program shows (a
+        prediction of the result, say), or raise to refuse it. Called once per program."""
+
     def model(self) -> dict[str, Any]:
         """The fitted model as JSON-able data (``postproc fit``)."""
         raise NotImplementedError(f"{self.name} cannot save its model")

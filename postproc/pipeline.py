@@ -185,6 +185,8 @@ class Pipeline:
                         raise InternalError(f"line {anchor.block.line} was not written as it was read: the opening "
                                             "blocks have no place")
                     body.write("".join(line + anchor.block.eol for _, line in opening).encode())
+            for compensator in self.compensators:
+                self._guarded(compensator, "finish", compensator.finish)
             eol = _eol(lead[0]) if lead else "\n"
             spool.write("".join(lead).encode("utf-8", "surrogateescape"))
             added = [f"{name} ADDED {line} AFTER LINE {anchor.block.line}" for name, line in opening]
