@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any, Sequence
 
 import numpy as np
@@ -192,47 +193,64 @@ def _reference_of(saved: Any, name: str) -> dict[str, float] | None:
 
 
 def _normals(pieces: Sequence[Piece], points: np.ndarray, counts: list[int]) -> np.ndarray:
-    """The unit normal to the left of the direction of travel at every point of the pieces."""
-    normals = np.empty_like(points)
-    first = 0
-    for piece, count in zip(pieces, counts):
-        segment, rows = piece.segment, slice(first, first + count)
+    """The unit normal to the left of the direction of travel at every point of the pieces, in one
+    array pass: a line's from its direction, an arc's towards its centre for G02, away for G03."""
+    rows = []
+    for piece in pieces:
+        segment = piece.segment
         if type(segment) is Line:
             tx, tz = segment.direction
-            normals[rows] = (-tz, tx)
-        else:  # the left normal of an arc points to its centre for G02, away from it for G03
-            radial = points[rows] - (segment.xc, segment.zc)
-            radial /= np.hypot(radial[:, 0], radial[:, 1])[:, None]
-            normals[rows] = -radial if segment.sweep > 0 else radial
-        first += count
-    return normals
+            rows.append((0.0, 0.0, -tz, tx, 0.0))
+        else:
+            rows.append((segment.xc, segment.zc, 0.0, 0.0, -1.0 if segment.sweep > 0 else 1.0))
+    each = np.repeat(np.array(rows), counts, axis=0)
+    radial = points - each[:, :2]
+    length = np.hypot(radial[:, 0], radial[:, 1])
+    arc = each[:, 4] != 0.0
+    scale = np.where(arc, each[:, 4] / np.where(arc, length, 1.0), 0.0)
+    return radial * scale[:, None] + each[:, 2:4]
 
 
 class Prediction:
     """The error normal to the corrected moves, summed as the program stands and as the tables
-    leave it, on the reference machine, weighted by length."""
+    leave it, on the reference machine, weighted by length: about every SPACING mm along each
+    piece, 3 to SPOTS points (both errors are smooth along a piece; every sample of the core's
+    would cost more than the correction)."""
+
+    SPACING = 1.0  #: mm
+    SPOTS = 65
 
     def __init__(self):
         self.sums = np.zeros((2, 4))  # (before, after) x (weight, sum, sum |e|, sum e^2)
 
     def add(self, pieces: Sequence[Piece], shifts: list[np.ndarray | None], reference: dict[str, float],
             centre: tuple[float, float], radius: float) -> None:
-        chosen = [(piece, shift) for piece, shift in zip(pieces, shifts) if shift is not None]
+        chosen, taken, spots, lengths = [], [], [], []
+        for piece, shift in zip(pieces, shifts):
+            if shift is None:
+                continue
+            n = len(piece.t)
+            wanted = min(max(3, math.ceil(piece.segment.length / self.SPACING) + 1), self.SPOTS)
+            rows = slice(0, n, max(1, (n - 1) // (wanted - 1)))
+            chosen.append(piece)
+            taken.append((piece.points[rows], shift[rows]))
+            spots.append(len(range(*rows.indices(n))))
+            lengths.append(piece.segment.length)
         if not chosen:
             return
-        counts = [len(piece.t) for piece, _ in chosen]
-        points = np.concatenate([piece.points for piece, _ in chosen])
-        shift = np.concatenate([shift for _, shift in chosen])
-        weight = np.repeat([piece.segment.length / len(piece.t) for piece, _ in chosen], counts)
+        counts = spots
+        points = np.concatenate([p for p, _ in taken])
+        shift = np.concatenate([s for _, s in taken])
+        weight = np.repeat(np.array(lengths) / np.array(spots), counts)
         u, w = points[:, 0] - centre[0], points[:, 1] - centre[1]
         inside = (np.abs(u) <= radius) & (np.abs(w) <= radius)
         if not inside.any():
             return
-        dx = np.repeat([float(piece.x_direction) for piece, _ in chosen], counts)
-        dz = np.repeat([float(piece.z_direction) for piece, _ in chosen], counts)
+        dx = np.repeat([float(piece.x_direction) for piece in chosen], counts)
+        dz = np.repeat([float(piece.z_direction) for piece in chosen], counts)
         e_x = reference["scaling_x"] * u + reference["squareness"] * w - 0.5 * reference["backlash_x"] * dx
         e_z = reference["scaling_z"] * w - 0.5 * reference["backlash_z"] * dz
-        normal = _normals([piece for piece, _ in chosen], points, counts)
+        normal = _normals(chosen, points, counts)
         before = e_x * normal[:, 0] + e_z * normal[:, 1]
         after = before + np.einsum("ij,ij->i", shift, normal)
         weight = weight * inside
