@@ -323,20 +323,21 @@ def _units_and_plane(steps, system: str) -> tuple[Step | None, Step | None]:
     """(anchor, stop): the step by which the program has set its units and, if it sets it
     before, its plane, looked for before ``stop``, its first tool call or move (None: the end)."""
     table = G.SYSTEMS[system]
-    units = plane = None
+    units = plane = stop = None
     for step in steps:
         codes = step.block.codes
         if step.moves or any(letter == "T" for letter, _ in codes):
-            return (plane if plane is not None and units is not None and plane.block.line > units.block.line
-                    else units), step
+            stop = step
+            break
         for letter, value in codes:
-            if letter == "G" and type(value) is str:
-                entry = table.get(G.code_key(float(value)))
-                if entry is not None and entry[1] in (G.INCH, G.METRIC) and units is None:
-                    units = step
-                elif entry is not None and entry[1] == G.PLANE_ZX and plane is None:
-                    plane = step
-    return (plane if plane is not None and units is not None and plane.block.line > units.block.line else units), None
+            entry = table.get(G.code_key(float(value))) if letter == "G" and type(value) is str else None
+            if entry is not None and entry[1] in (G.INCH, G.METRIC) and units is None:
+                units = step
+            elif entry is not None and entry[1] == G.PLANE_ZX and plane is None:
+                plane = step
+    if units is not None and plane is not None and plane.block.line > units.block.line:
+        return plane, stop
+    return units, stop
 
 
 def _safe(text: str) -> str:
