@@ -2,20 +2,24 @@
 
 from __future__ import annotations
 
-from typing import Any
+import math
+from typing import Any, Sequence
 
 import numpy as np
 
 from postproc import ballbar_fit
 from postproc.ballbar_analysis import centred, tests
-from postproc.compensator import Measurements
+from postproc.compensator import Measurements, Piece
 from postproc.diagnostics import Location, MeasurementError, ModelError
+from postproc.geometry import Line
 from postproc.hookspecs import hookimpl
 from postproc.measurements.ballbar import BallbarTrace
 from postproc_plugins.parametric import ErrorFunctions
 
 TABLES = ("x+", "x-", "z+", "z-")  #: axis and direction of its travel
 OUTER = 0.1  #: share of a table's span at each end whose straight line extrapolates it
+REFERENCE = ("scaling_x", "scaling_z", "backlash_x", "backlash_z", "squareness")  #: the physical model's parameters
+WORSE_UM = 0.05  #: a predicted figure this much above the uncompensated one counts as worse
 
 
 def _fold_x(angles: np.ndarray) -> np.ndarray:
@@ -104,6 +108,19 @@ class EffectiveAngle(ErrorFunctions):
     fit is biased on a partial arc); several tests (each a CCW and a CW trace of one circle)
     give one table per axis and direction, the mean of the tests where they overlap.
 
+    An axis that stands still during a move keeps the backlash of its last direction of
+    travel, so it takes that direction's table (the direction each piece carries); only
+    where no move before has told which way it last went does it take the mean of both.
+
+    Predicted on each program: the per-axis error model fitted to the same traces (the
+    parametric diagnosis of ``postproc ballbar``: scaling, backlash, squareness) stands in
+    for the machine; along every corrected feed move inside the box the arcs span, the error
+    normal to the move is summed as the program stands and as the tables leave it (length
+    weighted). If the four figures (mean, mean |e|, RMS, sigma) say the tables would leave
+    the moves worse than no compensation in any of them, a warning gives both sets of
+    predicted figures (the other axis's error leaking into each table, docs/methods.md §7.1;
+    ``parametric`` has no such spread).
+
     What it needs (the minimum evidence): ``--ballbar`` with a CCW and a CW trace of each test,
     at least 36 samples over at least 90 deg of arc each, screened as parametric's are (a
     machine parameter the arcs cannot determine within ``max-uncertainty`` refuses, naming
@@ -145,6 +162,31 @@ class EffectiveAngle(ErrorFunctions):
                 raise MeasurementError(f"{self.name}: the arcs measure no {name} table (the {name[0].upper()} axis "
                                        f"travelling {name[1]}); measure a longer arc", Location(traces[0].path))
         self._score(traces)
+        self.reference = {name: getattr(self.diagnosis, name).value for name in REFERENCE}
+        self.prediction = Prediction()
+
+    def correct_many(self, pieces: Sequence[Piece]) -> list[np.ndarray | None]:
+        shifts = super().correct_many(pieces)
+        if self.reference is not None:
+            self.prediction.add(pieces, shifts, self.reference, self.centre, self.box)
+        return shifts
+
+    def finish(self) -> None:
+        """Warn when the tables are predicted to leave this program worse than no compensation."""
+        before, after = self.prediction.figures()
+        self.prediction = Prediction()
+        if before is None:
+            return
+        worse = [name for name in ("mean", "mean |e|", "RMS", "sigma")
+                 if abs(after[name]) > abs(before[name]) + WORSE_UM]
+        if worse:
+            shown = ", ".join(f"{name} {before[name]:+.2f} -> {after[name]:+.2f} um" if name == "mean" else
+                              f"{name} {before[name]:.2f} -> {after[name]:.2f} um" for name in before)
+            self.context.reporter.warn(
+                f"{self.name}: predicted to leave this program's feed moves worse than no compensation in "
+                f"{' and '.join(worse)} ({shown}, normal to the moves inside the box the test arcs span, with the "
+                "parametric fit of the same traces as the machine): the tables mix each axis's error with the "
+                "other's; parametric has no such spread")
 
     def _lookup(self, table: str, at: np.ndarray) -> np.ndarray:
         offsets, errors = self.tables[table]
@@ -167,13 +209,15 @@ class EffectiveAngle(ErrorFunctions):
         return result[0], result[1]
 
     def model(self) -> dict[str, Any]:
-        return {**self._extent(), "fit": self.fit_figures,
+        return {**self._extent(), "fit": self.fit_figures, "reference": self.reference,
                 "tables": {name: {"offset_mm": offsets.tolist(), "error_mm": errors.tolist()}
                            for name, (offsets, errors) in self.tables.items()}}
 
     def load(self, model: dict[str, Any]) -> None:
         try:
             self._load_extent(model)
+            self.reference = _reference_of(model.get("reference"), self.name)
+            self.prediction = Prediction()
             self.tables = {name: (np.array(model["tables"][name]["offset_mm"], dtype=float),
                                   np.array(model["tables"][name]["error_mm"], dtype=float)) for name in TABLES}
         except (KeyError, TypeError, ValueError) as exc:
@@ -185,6 +229,98 @@ class EffectiveAngle(ErrorFunctions):
     def report(self) -> dict[str, Any]:
         largest = {name: float(np.max(np.abs(errors))) for name, (_, errors) in self.tables.items()}
         return {**super().report(), "largest_error_mm": largest}
+
+
+def _reference_of(saved: Any, name: str) -> dict[str, float] | None:
+    if saved is None:
+        return None
+    try:
+        return {key: float(saved[key]) for key in REFERENCE}
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ModelError(f"{name}: the saved reference model is incomplete ({exc.__class__.__name__}: {exc})") from None
+
+
+def _normals(pieces: Sequence[Piece], points: np.ndarray, counts: list[int]) -> np.ndarray:
+    """The unit normal to the left of the direction of travel at every point of the pieces, in one
+    array pass: a line's from its direction, an arc's towards its centre for G02, away for G03."""
+    rows = []
+    for piece in pieces:
+        segment = piece.segment
+        if type(segment) is Line:
+            tx, tz = segment.direction
+            rows.append((0.0, 0.0, -tz, tx, 0.0))
+        else:
+            rows.append((segment.xc, segment.zc, 0.0, 0.0, -1.0 if segment.sweep > 0 else 1.0))
+    each = np.repeat(np.array(rows), counts, axis=0)
+    radial = points - each[:, :2]
+    length = np.hypot(radial[:, 0], radial[:, 1])
+    arc = each[:, 4] != 0.0
+    scale = np.where(arc, each[:, 4] / np.where(arc, length, 1.0), 0.0)
+    return radial * scale[:, None] + each[:, 2:4]
+
+
+class Prediction:
+    """The error normal to the corrected moves, summed as the program stands and as the tables
+    leave it, on the reference machine, weighted by length: about every SPACING mm along each
+    piece, 3 to SPOTS points (both errors are smooth along a piece; every sample of the core's
+    would cost more than the correction)."""
+
+    SPACING = 1.0  #: mm
+    SPOTS = 65
+
+    def __init__(self):
+        self.sums = np.zeros((2, 4))  # (before, after) x (weight, sum, sum |e|, sum e^2)
+
+    def add(self, pieces: Sequence[Piece], shifts: list[np.ndarray | None], reference: dict[str, float],
+            centre: tuple[float, float], box: tuple[tuple[float, float], tuple[float, float]]) -> None:
+        chosen, taken, spots, lengths = [], [], [], []
+        for piece, shift in zip(pieces, shifts):
+            if shift is None:
+                continue
+            n = len(piece.t)
+            wanted = min(max(3, math.ceil(piece.segment.length / self.SPACING) + 1), self.SPOTS)
+            rows = slice(0, n, max(1, (n - 1) // (wanted - 1)))
+            chosen.append(piece)
+            taken.append((piece.points[rows], shift[rows]))
+            spots.append(len(range(*rows.indices(n))))
+            lengths.append(piece.segment.length)
+        if not chosen:
+            return
+        counts = spots
+        points = np.concatenate([p for p, _ in taken])
+        shift = np.concatenate([s for _, s in taken])
+        weight = np.repeat(np.array(lengths) / np.array(spots), counts)
+        u, w = points[:, 0] - centre[0], points[:, 1] - centre[1]
+        (x0, x1), (z0, z1) = box
+        inside = (points[:, 0] >= x0) & (points[:, 0] <= x1) & (points[:, 1] >= z0) & (points[:, 1] <= z1)
+        if not inside.any():
+            return
+        dx = np.repeat([float(piece.x_direction) for piece in chosen], counts)
+        dz = np.repeat([float(piece.z_direction) for piece in chosen], counts)
+        e_x = reference["scaling_x"] * u + reference["squareness"] * w - 0.5 * reference["backlash_x"] * dx
+        e_z = reference["scaling_z"] * w - 0.5 * reference["backlash_z"] * dz
+        normal = _normals(chosen, points, counts)
+        before = e_x * normal[:, 0] + e_z * normal[:, 1]
+        after = before + np.einsum("ij,ij->i", shift, normal)
+        weight = weight * inside
+        for row, e in enumerate((before * 1000.0, after * 1000.0)):
+            self.sums[row] += (weight.sum(), weight @ e, weight @ np.abs(e), weight @ (e * e))
+
+    def figures(self) -> tuple[dict[str, float] | None, dict[str, float] | None]:
+        """(before, after): mean, mean |e|, RMS and sigma in um, or None when nothing was summed."""
+        if self.sums[0, 0] <= 0.0:
+            return None, None
+        found = []
+        for total, plain, absolute, square in self.sums:
+            mean, rms = plain / total, float(np.sqrt(square / total))
+            found.append({"mean": mean, "mean |e|": absolute / total, "RMS": rms,
+                          "sigma": float(np.sqrt(max(rms * rms - mean * mean, 0.0)))})
+        return found[0], found[1]
+
+
+@hookimpl
+def postproc_compensators():
+    return [EffectiveAngle]
 
 
 @hookimpl

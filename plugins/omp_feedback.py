@@ -1,146 +1,258 @@
-"""omp-feedback: the surface an earlier pass left, probed on the machine, reflected about the nominal.
-
-Also home to what ``omp-feedback`` and ``tool-offset`` share: the chains of connected feed
-moves a program is made of, and a probe file read against them (:class:`ProbedChain`).
-"""
+"""omp-feedback: the surface an earlier pass left, probed on the machine, reflected about the nominal."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Iterable
 
 import numpy as np
 
-from postproc.compensator import Compensator, Measurements, Option, Piece
+from postproc.compensator import Option, Piece
 from postproc.diagnostics import Location, MeasurementError
+from postproc.features import MIN_TOUCHES, Feature, owners
 from postproc.figures import figures
-from postproc.geometry import Profile, segment_of
+from postproc.geometry import Line, Profile
 from postproc.hookspecs import hookimpl
-from postproc.measurements.probe import ProbeFile
-from postproc.motion import CORNER, REPLAY, RUN, Move
-from postproc.pretravel import fit_calibration
-from postproc.probing import Deviations, Screened, check_datum, profile_deviations, touched_points
-from postproc.screening import Screening, screen
+from postproc.motion import Move
+from postproc.probed import Evidence, ProbeCompensator, ProbedChain, move_key
 
-JOIN = 1e-6  #: mm: a move starting this close to where the previous one ended continues its chain
-END_SNAP = 0.01  #: mm: a stretch stopping this close to the end of a move reaches it (a touch aimed at a
-#: move's end lands a few micrometres either side of it)
-RUNS = (RUN, CORNER, REPLAY)  #: roles of moves the control runs where they stand (a G70 runs its contour)
+END_SNAP = 0.01  #: mm: a touch this close to the end of its feature covers it to that end, whatever the spacing
+SMOOTH_DEG = 10.0  #: a join where the tangent turns less than this is smooth: the error is interpolated across it
+SLOPE_SIGMAS = 3.0  #: a line's fitted slope is kept only beyond this many standard errors
+SLOPE_MM = 0.0005  #: and only when it changes the error by more than this over the feature
+CORRECTED, THIN, OUTSIDE = "corrected", "too few touches", "outside the probed stretch"
 
 
-def move_key(move: Move) -> tuple:
-    """Which block a move is, whether run where it stands or replayed by G70 (same line, end, centre)."""
-    return (move.line, move.x1, move.z1, move.xc, move.zc, move.cw)
-
-
-@dataclass(frozen=True)
-class Chain:
-    """Feed moves run one after the other, each starting where the previous one ended, by one tool."""
-
-    moves: tuple[Move, ...]
-    profile: Profile
-
-    @property
-    def tool(self) -> int | None:
-        return self.moves[0].tool
-
-    @property
-    def lines(self) -> str:
-        return f"lines {self.moves[0].line}-{self.moves[-1].line}"
-
-
-def chains_of(moves: Iterable[Move]) -> list[Chain]:
-    """The program's feed moves (as run: G70 contours at the G70) split into connected chains."""
-    chains: list[list[Move]] = []
-    for move in moves:
-        if move.role not in RUNS or not move.is_feed or not move.known or segment_of(move).length == 0.0:
-            continue
-        last = chains[-1][-1] if chains else None
-        if (last is not None and last.tool == move.tool
-                and abs(move.x0 - last.x1) <= JOIN and abs(move.z0 - last.z1) <= JOIN):
-            chains[-1].append(move)
-        else:
-            chains.append([move])
-    return [Chain(tuple(chain), Profile(tuple(segment_of(m) for m in chain))) for chain in chains]
+def line_fit(s: np.ndarray, e: np.ndarray) -> tuple[float, float, str]:
+    """(level at the mean s, slope, how): the error along a line feature as a straight line, its
+    slope kept only where the touches show it (beyond SLOPE_SIGMAS standard errors and SLOPE_MM
+    over their span), else their mean: a diameter stays a diameter, a face a face."""
+    centre = float(s.mean())
+    level = float(e.mean())
+    spread = float(((s - centre) ** 2).sum())
+    if len(s) < 3 or spread <= 0.0:
+        return level, 0.0, "mean"
+    slope = float(((s - centre) * (e - level)).sum() / spread)
+    residual = e - level - slope * (s - centre)
+    error = float(np.sqrt((residual @ residual) / (len(s) - 2) / spread))
+    span = float(s.max() - s.min())
+    if abs(slope) > SLOPE_SIGMAS * error and abs(slope) * span > SLOPE_MM:
+        return level, slope, "straight line"
+    return level, 0.0, "mean"
 
 
 @dataclass(frozen=True)
-class ProbedChain(Screened):
-    """The touches that lie on one chain, against it, screened for the nub and outliers."""
+class FeatureError:
+    """The error along one feature, from its own touches: what ``omp-feedback`` takes out there."""
 
-    chain: Chain
-    index: np.ndarray  #: the touches' places in the probe file
-    touched: np.ndarray  #: (n, 2) touched points, mm
-    deviations: Deviations  #: along the outward normal, positive = material left; ``nearest.s`` along the chain
-    screening: Screening
-    side: float  #: +1 when the outward normal is the chain's left normal, -1 when its right
-
-    def dropped(self) -> list[dict[str, Any]]:
-        return [{"row": d.row, "kind": d.kind, "deviation_mm": d.deviation, "replacement_mm": d.replacement,
-                 "how": d.how} for d in self.screening.dropped]
-
-
-@dataclass(frozen=True)
-class Stretch:
-    """The error along the part of a chain the touches cover: what ``omp-feedback`` takes out."""
-
-    profile: Profile  #: the chain's
-    s: np.ndarray  #: mm along the chain, increasing
-    error: np.ndarray  #: mm along the outward normal at ``s``: deviation minus stock, cleaned
-    start: tuple[int, float]  #: (segment, parameter) of the first touch
-    end: tuple[int, float]  #: and of the last
-    side: float  #: as :attr:`ProbedChain.side`
+    feature: Feature
+    s: np.ndarray  #: mm along the chain, increasing: the touches' places (touches at one place averaged)
+    error: np.ndarray  #: mm along the outward normal at ``s``: deviation minus stock, cleaned (a line: fitted)
+    start: float  #: mm along the chain where the correction starts: the feature's start, or its first touch
+    end: float  #: and where it ends
+    how: str  #: "interpolated" (an arc), "straight line" or "mean" (a line)
+    slope: float = 0.0  #: a line's fitted slope, mm per mm along it
 
     @classmethod
-    def of(cls, probed: ProbedChain, stock: float) -> "Stretch":
-        near, profile = probed.deviations.nearest, probed.chain.profile
-        places, inverse = np.unique(np.round(near.s, 9), return_inverse=True)  # touches at one place: averaged
-        error = np.bincount(inverse, weights=probed.cleaned - stock) / np.bincount(inverse)
-        first, last = int(np.argmin(near.s)), int(np.argmax(near.s))
-        return cls(profile, places, error, _snapped(profile, near.index[first], near.param[first], 0.0),
-                   _snapped(profile, near.index[last], near.param[last], 1.0), probed.side)
+    def of(cls, probed: ProbedChain, evidence: Evidence, stock: float) -> "FeatureError":
+        """From the feature's touches: an arc's error interpolated between them, a line's fitted
+        (:func:`line_fit`); the correction runs to the feature's ends, except where the chain's
+        probed stretch ends inside it: there it covers the feature to its end only if the gap is
+        no wider than its touches lie apart."""
+        feature, members = evidence.feature, evidence.members
+        near = probed.deviations.nearest.s[members]
+        places, inverse = np.unique(np.round(near, 9), return_inverse=True)
+        error = np.bincount(inverse, weights=probed.cleaned[members] - stock) / np.bincount(inverse)
+        how, slope = "interpolated", 0.0
+        if feature.radius is None:
+            level, slope, how = line_fit(places, error)
+            error = level + slope * (places - places.mean())
+        spacing = (places[-1] - places[0]) / max(len(members) - 1, 1)
+        reach = max(END_SNAP, spacing)
+        first, last = probed.span
+        start = feature.s0 if feature.s0 >= first - 1e-9 or places[0] - feature.s0 <= reach else float(places[0])
+        end = feature.s1 if feature.s1 <= last + 1e-9 or feature.s1 - places[-1] <= reach else float(places[-1])
+        return cls(feature, places, error, start, end, how, slope)
 
-    def s_at(self, index: int, param):
-        """Arc length along the chain at parameters of segment ``index``."""
-        return self.profile.offsets[index] + param * self.profile.segments[index].length
+    def outer(self, at_end: bool) -> tuple[float, float]:
+        """(s, e) of the outermost touch at one end."""
+        k = -1 if at_end else 0
+        return float(self.s[k]), float(self.error[k])
+
+    def extended(self, at_end: bool) -> float:
+        """The error at the feature's end: an arc's held, a line's fitted line carried on."""
+        s, e = self.outer(at_end)
+        return e + self.slope * ((self.feature.s1 if at_end else self.feature.s0) - s)
+
+
+class ChainErrors:
+    """The correction along one probed chain: each feature from its own touches, or left alone.
+
+    Where two corrected features meet at a corner, both are carried to where the moved
+    features meet (their tangent lines at the corner, each moved by its own error along its
+    own normal), so the path turns there with no step and no axis turning back; across a
+    smooth join (a tangent join, or a turn under 10 deg, where the error does not step) the
+    error is interpolated between the nearest touches on either side. A corrected feature
+    meeting one left alone at a corner is carried onto the other's nominal line. Points slide
+    along the features to get there: that moves no surface.
+    """
+
+    def __init__(self, probed: ProbedChain, stock: float, minimum: int):
+        self.probed = probed
+        self.profile: Profile = probed.chain.profile
+        self.side = probed.side
+        self.status: list[str] = []
+        self.errors: list[FeatureError | None] = []
+        for evidence in probed.evidence():
+            if evidence.count >= minimum:
+                self.errors.append(FeatureError.of(probed, evidence, stock))
+                self.status.append(CORRECTED)
+            else:
+                self.errors.append(None)
+                self.status.append(THIN if evidence.count or probed.covers(evidence.feature) else OUTSIDE)
+        found = probed.chain.features
+        self.owner = owners(found)
+        count = len(found)
+        # per feature: the knots its error is interpolated through, and where each end meets its neighbour
+        self.knots: list[tuple[np.ndarray, np.ndarray] | None] = []
+        self.ends: list[list[np.ndarray | None]] = [[None, None] for _ in range(count)]
+        for k, mine in enumerate(self.errors):
+            if mine is None:
+                self.knots.append(None)
+            elif mine.how != "interpolated":  # a line: its fitted line, end to end
+                feature = found[k]
+                self.knots.append((np.array([feature.s0, feature.s1]),
+                                   np.array([mine.extended(False), mine.extended(True)])))
+            else:
+                self.knots.append(self._arc_knots(k, mine, found))
+        for k in range(count - 1):
+            self._corner(k, found[k], found[k + 1])
+
+    def _arc_knots(self, k: int, mine: FeatureError, found: tuple[Feature, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """An arc's error through its touches, on to each end: across a smooth join to the
+        neighbour (a line's fitted value at the join, an arc's nearest touch), else held."""
+        s, e = list(mine.s), list(mine.error)
+        for at_end, other in ((False, k - 1), (True, k + 1)):
+            feature = found[k]
+            edge = feature.s1 if at_end else feature.s0
+            neighbour = self.errors[other] if 0 <= other < len(found) else None
+            angle = feature.turn_out if at_end else feature.turn_in
+            if neighbour is not None and angle is not None and abs(angle) < math.radians(SMOOTH_DEG):
+                if neighbour.how == "interpolated":
+                    place, value = neighbour.outer(not at_end)
+                else:
+                    place, value = edge, neighbour.extended(not at_end)
+            else:
+                place, value = edge, mine.extended(at_end)
+            if at_end:
+                s.append(place)
+                e.append(value)
+            else:
+                s.insert(0, place)
+                e.insert(0, value)
+        return np.array(s), np.array(e)
+
+    def _outward(self, index: int, param: float) -> np.ndarray:
+        return self.side * self.profile.left_normals(np.array([index]), np.array([param]))[0]
+
+    def _error_at(self, k: int, s: float) -> float:
+        s_knots, e_knots = self.knots[k]
+        return float(np.interp(s, s_knots, e_knots))
+
+    def _corner(self, k: int, before: Feature, after: Feature) -> None:
+        """Where features ``k`` and ``k + 1`` meet once moved: both ends' displacement.
+
+        At a sharp corner each keeps its own error and the two moved tangent lines meet; across
+        a smooth join with an arc the errors agree there, and the point moves along the mean
+        of the two normals; a feature left alone stays on its nominal line."""
+        mine, theirs = self.errors[k], self.errors[k + 1]
+        reaches_a = mine is not None and mine.end == before.s1
+        reaches_b = theirs is not None and theirs.start == after.s0
+        if not (reaches_a or reaches_b):
+            return
+        angle = before.turn_out
+        n_a, n_b = self._outward(before.stop - 1, 1.0), self._outward(after.first, 0.0)
+        e_a = self._error_at(k, before.s1) if reaches_a else 0.0
+        e_b = self._error_at(k + 1, after.s0) if reaches_b else 0.0
+        sharp = abs(angle) >= math.radians(SMOOTH_DEG)
+        if not sharp and (mine is None or theirs is None or not (reaches_a and reaches_b)):
+            return  # nearly parallel: a moved feature and one left alone do not meet; the core joins them
+        if sharp or (mine.how != "interpolated" and theirs.how != "interpolated" and abs(math.sin(angle)) > 1e-3):
+            meet = np.linalg.solve(np.array([n_a, n_b]), -np.array([e_a, e_b]))
+        else:  # the same error on both sides: along the mean of the two normals, as far as both need
+            meet = -0.5 * (e_a + e_b) * (n_a + n_b) / (1.0 + float(n_a @ n_b))
+        self.ends[k][1] = meet
+        self.ends[k + 1][0] = meet
 
     def shift(self, index: int, points: np.ndarray) -> np.ndarray | None:
-        """-e along the outward normal at points of segment ``index``; zero off the stretch; None off it all."""
-        if not self.start[0] <= index <= self.end[0]:
-            return None
+        """-e along the outward normal at points of segment ``index``, plus the slide along the
+        feature that takes its ends to where it meets its neighbours; zero off the corrected
+        stretch of its feature; None when none of the points is on it."""
+        k = int(self.owner[index])
+        found, ends = self.errors[k], self.ends[k]
         segment = self.profile.segments[index]
+        if found is None and (isinstance(segment, Line) or ends == [None, None]):
+            return None  # a line left alone: its start or end may move along it, which the core does
         t = np.clip(segment.param_of(points), 0.0, 1.0)
-        inside = np.ones(len(t), dtype=bool)
-        if index == self.start[0]:
-            inside &= t >= self.start[1] - 1e-9
-        if index == self.end[0]:
-            inside &= t <= self.end[1] + 1e-9
-        if not inside.any():
-            return None
+        s = self.profile.offsets[index] + t * segment.length
         tangent = segment.tangent_at(t)
         outward = self.side * np.column_stack([-tangent[:, 1], tangent[:, 0]])
-        e = np.where(inside, np.interp(self.s_at(index, t), self.s, self.error), 0.0)
-        return -e[:, None] * outward
+        if found is None:
+            inside = np.ones(len(s), dtype=bool)
+            e = np.zeros(len(s))
+        else:
+            inside = (s >= found.start - 1e-9) & (s <= found.end + 1e-9)
+            if not inside.any():
+                return None
+            e = np.where(inside, np.interp(s, *self.knots[k]), 0.0)
+        feature = self.probed.chain.features[k]
+        slide = np.zeros(len(s))
+        for at_end, meet in enumerate(ends):
+            if meet is not None:  # the meeting point's share along the feature, growing towards its end
+                share = (s - feature.s0) / feature.length if at_end else (feature.s1 - s) / feature.length
+                edge = self.profile.segments[feature.stop - 1 if at_end else feature.first]
+                slide += share * float(meet @ np.asarray(edge.direction_at(float(at_end))))
+        return np.where(inside[:, None], -e[:, None] * outward + slide[:, None] * tangent, 0.0)
 
 
-class OmpFeedback(Compensator):
-    """Reflect the profile about the nominal by the error an earlier pass left (docs/methods.md §9.6).
+class OmpFeedback(ProbeCompensator):
+    """Reflect the profile about the nominal by the error an earlier pass left (docs/methods.md §9.6, §4).
 
     What it corrects: everything that put the surface of an earlier pass of the same profile
     where it is: machine errors, tool setting, cutting deflection, as the on-machine probe
     saw them. Each touch is assigned to the nearest feed segment of the program (lines and
-    arcs: any chain of connected feed moves, G70 contours as G70 runs them); its error is
-    ``e = deviation - stock`` along the outward normal; ``e`` is interpolated along the
-    chain's arc length between the touches, and the path moves by ``-e`` along the outward
-    normal over the stretch the touches cover (from the first to the last; a stretch ending
-    within 0.01 mm of the end of a move reaches it) and nowhere else.
+    arcs: any chain of connected feed moves, G70 contours as G70 runs them), so to the
+    feature it lies on (a line or an arc; features meet at corners, where the tangent turns,
+    or at tangent joins). Its error is ``e = deviation - stock`` along the outward normal.
+
+    Per feature, never across a corner: the error a cut leaves steps at a corner (a tool set
+    long in X makes a diameter big and leaves a face alone), so each feature is corrected from
+    its own touches only. They are screened for the nub and stray touches against each other
+    (``postproc.screening``). Along an arc ``e`` is interpolated between them; along a line it
+    is fitted with a straight line, whose slope is kept only where the touches show it (beyond
+    3 standard errors and 0.5 um over their span), else their mean: a diameter stays a
+    diameter and a face a face, so an axis that stood still still does (no backlash turned
+    over, a G71 contour still one way). The path moves by ``-e`` along the feature's own
+    outward normal (a face along Z, a diameter along X), out to the feature's ends: at a corner
+    both features are carried to where they meet once moved, so the path turns there without
+    a step or an axis turning back; across a smooth join (tangent, or turning under 10 deg) an
+    arc's error runs on to its neighbour's. The correction covers the stretch the touches cover
+    (from the first to the last touch) and nowhere else; where that stretch ends inside a
+    feature, it reaches the feature's end only when the gap is no wider than the feature's
+    touches lie apart (0.01 mm at least).
+
+    Minimum evidence: 3 touches per feature, the fewest among which one bad touch shows. A
+    feature in the probed stretch with fewer (none, or 1 or 2 that cannot be screened) is left
+    as programmed, with a warning naming it and its rows; when no feature has 3, the run is
+    refused (exit 3). ``postproc probe-program`` gives every feature at least 3.
 
     What it needs: ``--probe`` with one probe file taken on the earlier pass, and preferably
     ``--calibration`` (the pretravel on the sphere artifact; without it k = 0, with a
     warning). When the file has a datum probed before and after, a datum that moved by more
     than ``repeatability_mm`` refuses the run (exit 4; ``--force`` uses the points anyway).
-    The nub at the pole and stray touches are dropped and replaced by the trend of their
-    neighbours (docs/methods.md §9.5): each is warned about and listed in the report, with the four
+    Each dropped touch (the nub at the pole, a stray one) is warned about and listed in the
+    report with what replaced it; the report gives, per chain and per feature, the four
     figures of the error as measured and as cleaned.
 
     Options: ``stock=MM`` (default 0): how far outside this program's profile the earlier
@@ -155,88 +267,32 @@ class OmpFeedback(Compensator):
                                               X109.606 Z16.166 I-47.98 K-31.104
                                               X114.278 Z0. I-54.89 K-16.184
 
-    Where a stretch ends inside a move, the change comes in over the core's sample spacing
+    Where the correction ends inside a move, it comes in over the core's sample spacing
     (0.05 mm) next to the end touch.
     """
 
     name = "omp-feedback"
-    takes = ("probe", "calibration")
-    needs = ("probe",)
-    needs_survey = True
+    minimum = MIN_TOUCHES
     options = (Option("stock", float, 0.0, "how far outside this program's profile the probed pass was cut, mm"),)
-
-    # ------------------------------------------------------------------ the probe file
-
-    def fit(self, measurements: Measurements) -> None:
-        probes = measurements.probe
-        if len(probes) != 1:
-            raise MeasurementError(f"{self.name} takes one probe file; {len(probes)} given", Location(probes[1].path))
-        probe = self.probe = probes[0]
-        reporter = self.context.reporter
-        self.notes = check_datum(probe, self.context.force, reporter)
-        calibration = fit_calibration(measurements.calibration) if measurements.calibration else None
-        if calibration is not None:
-            self.notes += calibration.report()
-        self.touched, _ = touched_points(probe, calibration, reporter)
-        self.probed: list[ProbedChain] = []
-        self.stretches: list[Stretch] = []
-
-    def model(self) -> dict[str, Any]:
-        """The touched points (calibration applied, datum checked): all a program needs of the files."""
-        probe = self.probe
-        return {"probe": probe.path, "stylus_radius_mm": probe.stylus_radius, "repeatability_mm": probe.repeatability,
-                "rows": list(probe.lines), "touched_mm": self.touched.tolist(), "approach": probe.approach.tolist(),
-                "notes": list(self.notes)}
-
-    def load(self, model: dict[str, Any]) -> None:
-        self.touched = np.array(model["touched_mm"], dtype=float).reshape(-1, 2)
-        approach = np.array(model["approach"], dtype=float).reshape(-1, 2)
-        stylus = float(model["stylus_radius_mm"])
-        self.probe = ProbeFile(model["probe"], stylus, self.touched - stylus * approach, approach,
-                               tuple(model["rows"]), repeatability=model["repeatability_mm"])
-        self.notes = list(model["notes"])
-        self.probed, self.stretches = [], []
-
-    def probed_chains(self, moves: Iterable[Move]) -> list[ProbedChain]:
-        """Each touch on the nearest feed segment of any chain, then each chain's touches screened."""
-        probe, points = self.probe, self.touched
-        chains = chains_of(moves)
-        if not chains:
-            raise MeasurementError("the program has no feed moves to compare the probe points with",
-                                   Location(probe.path))
-        combined = Profile(tuple(segment for chain in chains for segment in chain.profile.segments))
-        owner = np.repeat(np.arange(len(chains)), [len(chain.moves) for chain in chains])
-        which = owner[profile_deviations(points, probe.approach, combined, probe).nearest.index]
-        floor = probe.repeatability if probe.repeatability is not None else 0.002
-        result = []
-        for number in np.unique(which):
-            chain, index = chains[number], np.nonzero(which == number)[0]
-            deviations = profile_deviations(points[index], probe.approach[index], chain.profile)
-            near = deviations.nearest
-            left = chain.profile.left_normals(near.index, near.param)
-            sides = np.sign(np.sum(left * deviations.outward, axis=1))
-            if np.any(sides != sides[0]):
-                raise MeasurementError(f"the touches on the feed moves of {chain.lines} approach them from both "
-                                       "sides: which side is material is not clear", Location(probe.path))
-            screening = screen(deviations.deviation, near.s, [probe.lines[i] for i in index],
-                               axis_distance=np.abs(points[index, 0]), nub_zone=probe.stylus_radius, floor=floor,
-                               path=probe.path, reporter=self.context.reporter)
-            result.append(ProbedChain(chain, index, points[index], deviations, screening, float(sides[0])))
-        return result
-
-    # ------------------------------------------------------------------ the correction
 
     def survey(self, moves: Iterable[Move]) -> None:
         self.probed = self.probed_chains(moves)
-        self.stretches = [Stretch.of(probed, self.settings["stock"]) for probed in self.probed]
-        self._places: dict[tuple, list[tuple[int, int]]] = {}  # move -> (stretch, segment of its chain)
+        thin = self.thin(self.probed, self.minimum, "left as programmed")
+        self.chains = [ChainErrors(probed, self.settings["stock"], self.minimum) for probed in self.probed]
+        if not any(CORRECTED in chain.status for chain in self.chains):
+            where = "; ".join(evidence.describe() for evidence in thin)
+            raise MeasurementError(f"no feature of the profile has the {self.minimum} touches {self.name} needs to "
+                                   f"screen them for the nub and outliers ({where}): probe each feature at "
+                                   f"{self.minimum} points or more ('postproc probe-program' spreads them so)",
+                                   Location(self.probe.path))
+        self._places: dict[tuple, list[tuple[int, int]]] = {}  # move -> (chain, segment of its chain)
         for number, probed in enumerate(self.probed):
             for index, move in enumerate(probed.chain.moves):
                 self._places.setdefault(move_key(move), []).append((number, index))
 
     def correct(self, piece: Piece) -> np.ndarray | None:
         for number, index in self._places.get(move_key(piece.move), ()):
-            shift = self.stretches[number].shift(index, piece.points)
+            shift = self.chains[number].shift(index, piece.points)
             if shift is not None:
                 return shift
         return None
@@ -244,21 +300,33 @@ class OmpFeedback(Compensator):
     def report(self) -> dict[str, Any]:
         stock = self.settings["stock"]
         chains = []
-        for probed, stretch in zip(self.probed, self.stretches):
+        for probed, chain in zip(self.probed, getattr(self, "chains", [])):
+            corrected = [found for found in chain.errors if found is not None]
             chains.append({"moves": probed.chain.lines, "tool": probed.chain.tool, "points": len(probed.index),
-                           "stretch_mm": [float(stretch.s_at(*stretch.start)), float(stretch.s_at(*stretch.end))],
-                           "length_mm": probed.chain.profile.length,
+                           "stretch_mm": [min(f.start for f in corrected), max(f.end for f in corrected)]
+                           if corrected else [], "length_mm": probed.chain.profile.length,
                            "measured_error_um": figures(probed.deviation - stock).as_dict(),
                            "cleaned_error_um": figures(probed.cleaned - stock).as_dict(),
-                           "dropped": probed.dropped()})
-        return {"probe": self.probe.path, "stock_mm": stock, "notes": list(self.notes),
-                "chains": chains}
+                           "dropped": probed.dropped(),
+                           "features": [_feature_report(probed, evidence, status, found, stock)
+                                        for evidence, status, found in zip(probed.evidence(), chain.status,
+                                                                           chain.errors)]})
+        return {**super().report(), "stock_mm": stock, "minimum_touches_per_feature": self.minimum, "chains": chains}
 
 
-def _snapped(profile: Profile, index: int, param: float, end: float) -> tuple[int, float]:
-    """A stretch's end (segment, parameter), moved to the segment's ``end`` (0 or 1) when within END_SNAP of it."""
-    length = profile.segments[index].length
-    return int(index), (end if abs(end - param) * length <= END_SNAP else float(param))
+def _feature_report(probed: ProbedChain, evidence: Evidence, status: str, found: FeatureError | None,
+                    stock: float) -> dict[str, Any]:
+    feature = evidence.feature
+    entry: dict[str, Any] = {"feature": feature.describe(), "lines": list(feature.lines or ()), "kind": feature.kind,
+                             "s_mm": [feature.s0, feature.s1], "touches": evidence.count, "rows": list(evidence.rows),
+                             "status": status}
+    if evidence.count:
+        members = evidence.members
+        entry["measured_error_um"] = figures(probed.deviation[members] - stock).as_dict()
+        entry["cleaned_error_um"] = figures(probed.cleaned[members] - stock).as_dict()
+    if found is not None:
+        entry["corrected_mm"] = [found.start, found.end]
+    return entry
 
 
 @hookimpl

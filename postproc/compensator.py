@@ -116,10 +116,18 @@ class Compensator:
         array pass: on a program of short moves, calling numpy per piece is most of its cost."""
         return [self.correct(piece) for piece in pieces]
 
-    def prologue(self) -> list[str]:
-        """Blocks (text, no line ending) to write at the start of the program, after the
-        provenance comments: a G10 offset setting, say. They must parse and interpret."""
+    def prologue(self, inch: bool) -> list[str]:
+        """Blocks (text, no line ending) to open the program with: a G10 offset setting, say.
+
+        The core writes them right after the block by which the program has set its units
+        (``inch``: G20) and plane, before its first tool call or move, so values are in the
+        program's units; a program that sets no units there is refused. They must parse and
+        interpret, and the provenance header names them."""
         return []
+
+    def finish(self) -> None:
+        """The program has been corrected: warn about what only the whole program shows (a
+        prediction of the result, say), or raise to refuse it. Called once per program."""
 
     def model(self) -> dict[str, Any]:
         """The fitted model as JSON-able data (``postproc fit``)."""

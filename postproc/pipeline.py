@@ -6,6 +6,12 @@ sum. A compensator that raises or returns something unusable is named in the err
 no program is written. The output starts with a provenance comment block (FANUC-safe:
 upper case, no nested parentheses, short lines); a program that already carries one is
 refused unless forced, so nobody compensates twice by accident.
+
+A compensator's opening blocks (a G10 offset setting, say) go right after the block by which
+the program has set its units (G20/G21) and, when it sets it, its plane (G18), so that the
+control reads them in the program's units, and before the program's first tool call or
+move. A program that sets no units before those is refused for them: the blocks would be
+read in whatever units the control was left in. The header says what was added where.
 """
 
 from __future__ import annotations
@@ -20,12 +26,14 @@ from typing import Any
 import numpy as np
 
 from . import __version__
+from . import gcodes as G
 from . import models
 from . import plugins as registry
 from .compensator import Compensator, Context, Measurements, parse_options
-from .diagnostics import Location, OptionError, PluginError, PostprocError, Reporter, SafetyError, UsageError
+from .diagnostics import (InternalError, Location, OptionError, PluginError, PostprocError, Reporter, SafetyError,
+                          UsageError)
 from .measurements.registry import ReadContext, read as read_measurement
-from .motion import ARC, LINE
+from .motion import ARC, LINE, Step
 from .output import Spool
 from .profile import DEFAULT, MachineProfile
 from .program import interpret_source
@@ -162,40 +170,61 @@ class Pipeline:
             default_tolerance=self.profile.default_tolerance,
             max_correction=self.max_correction,
         )
+        opening, anchor = self._prologue(source)
         steps = interpret_source(source, self.profile, self.reporter)
         region = Region(self.request.regions)
         rewriter = Rewriter(steps, self._corrector(), settings, self.reporter, source.name, selects=region)
         lead: list[str] = []  # the tape mark and program number go before the provenance block
+        written = 0  # blocks written: one per source line up to the anchor, none of them replaced
         with tempfile.SpooledTemporaryFile(max_size=1 << 20) as body:
             for text in rewriter.run():
+                written += 1
                 if body.tell() == 0 and _is_program_start(text) and len(lead) < 8:
                     lead.append(text)
                     continue
                 body.write(text.encode("utf-8", "surrogateescape"))
+                if opening and written == anchor.block.line:
+                    if text != anchor.block.raw:
+                        raise InternalError(f"line {anchor.block.line} was not written as it was read: the opening "
+                                            "blocks have no place")
+                    body.write("".join(line + anchor.block.eol for _, line in opening).encode())
+            for compensator in self.compensators:
+                self._guarded(compensator, "finish", compensator.finish)
             eol = _eol(lead[0]) if lead else "\n"
             spool.write("".join(lead).encode("utf-8", "surrogateescape"))
-            spool.write(self._provenance(rewriter, eol).encode())
-            spool.write(self._prologue(source, eol).encode())
+            added = [f"{name} ADDED {line} AFTER LINE {anchor.block.line}" for name, line in opening]
+            spool.write(self._provenance(rewriter, eol, added).encode())
             body.seek(0)
             while chunk := body.read(1 << 20):
                 spool.write(chunk)
         return rewriter
 
-    def _prologue(self, source: Source, eol: str) -> str:
-        """The compensators' own opening blocks, each read back before it is written."""
+    def _prologue(self, source: Source) -> tuple[list[tuple[str, str]], Step | None]:
+        """The compensators' own opening blocks, (compensator, text) each read back, and the
+        step after which they go: the block by which the program has set its units and plane."""
         from .interpreter import Interpreter
         from .reader import read_blocks
 
-        lines: list[str] = []
+        if all(type(c).prologue is Compensator.prologue for c in self.compensators):
+            return [], None
+        anchor, stop = _units_and_plane(interpret_source(source, self.profile, Reporter()), self.profile.gcode_system)
+        inch = anchor.modal.inch if anchor is not None else False
+        blocks: list[tuple[str, str]] = []
         for compensator in self.compensators:
-            for text in self._guarded(compensator, "prologue", compensator.prologue):
+            for text in self._guarded(compensator, "prologue", compensator.prologue, inch):
                 try:
                     for _ in Interpreter(self.profile, Reporter(), "<prologue>").run(read_blocks([text + "\n"], "<prologue>")):
                         pass
                 except PostprocError as exc:
                     raise PluginError(compensator.name, f"its opening block {text!r} does not read: {exc.message}") from None
-                lines.append(text + eol)
-        return "".join(lines)
+                blocks.append((compensator.name, text))
+        if blocks and anchor is None:
+            where = Location(source.name, stop.block.line, 1, stop.block.text) if stop is not None else Location(source.name)
+            what = "its first tool call or move" if stop is not None else "its end"
+            raise SafetyError(f"the program sets no units (G20/G21) before {what}: {', '.join(t for _, t in blocks)} "
+                              "would be read in whatever units the control was left in; set the units in the "
+                              "program's opening blocks", where)
+        return blocks, anchor
 
     def _refuse_twice(self, source: Source) -> None:
         for number, text in enumerate(source.lines(), 1):
@@ -225,7 +254,7 @@ class Pipeline:
 
         return correct
 
-    def _provenance(self, rewriter: Rewriter, eol: str) -> str:
+    def _provenance(self, rewriter: Rewriter, eol: str, added: list[str]) -> str:
         lines = [f"POSTPROC {__version__} COMPENSATED"]
         for item, compensator in zip(self.installed, self.compensators):
             lines.append(f"PLUGIN {compensator.name} {item.version}")
@@ -237,6 +266,7 @@ class Pipeline:
         lines.append(f"TOLERANCE {'DEFAULT' if tolerance is None else f'{tolerance:g} MM'} MODE {self.request.mode}")
         lines.append(f"LARGEST CORRECTION {rewriter.largest:.4f} MM")
         lines.append(f"BLOCKS REPLACED {rewriter.replaced} BY {rewriter.emitted}")
+        lines += added
         return "".join(f"({_safe(line)}){eol}" for line in lines)
 
     def report(self) -> list[dict[str, Any]]:
@@ -290,6 +320,27 @@ def _checked(name: str, shifts, pieces: list[Piece]) -> list[np.ndarray | None]:
     if given and not np.isfinite(np.concatenate(given)).all():
         raise PluginError(name, "returned a correction with values that are not finite")
     return checked
+
+
+def _units_and_plane(steps, system: str) -> tuple[Step | None, Step | None]:
+    """(anchor, stop): the step by which the program has set its units and, if it sets it
+    before, its plane, looked for before ``stop``, its first tool call or move (None: the end)."""
+    table = G.SYSTEMS[system]
+    units = plane = stop = None
+    for step in steps:
+        codes = step.block.codes
+        if step.moves or any(letter == "T" for letter, _ in codes):
+            stop = step
+            break
+        for letter, value in codes:
+            entry = table.get(G.code_key(float(value))) if letter == "G" and type(value) is str else None
+            if entry is not None and entry[1] in (G.INCH, G.METRIC) and units is None:
+                units = step
+            elif entry is not None and entry[1] == G.PLANE_ZX and plane is None:
+                plane = step
+    if units is not None and plane is not None and plane.block.line > units.block.line:
+        return plane, stop
+    return units, stop
 
 
 def _safe(text: str) -> str:

@@ -1,11 +1,14 @@
 """Closing the loop on the machine: a FANUC probing program for a part program's profile.
 
-The program touches N points spread evenly (in arc length) along the nominal profile (the
-profile and its material side as ``postproc simulate probe`` picks them,
-:mod:`postproc.simulator.nominal`; ``inset`` keeps the touches that far from both ends of the
-stretch), and optionally a datum before and after them (docs/methods.md §9.3, the stability
-check); docs/methods.md §9.7 is the method. Each touch, with n the outward normal of the nominal
-surface at its point Q, R the stylus radius and c the clearance:
+The program touches N points spread over the features of the nominal profile (its lines and
+arcs, :mod:`postproc.features`; the profile and its material side as ``postproc simulate
+probe`` picks them, :mod:`postproc.simulator.nominal`): at least ``per_feature`` on every
+feature, the rest shared out by length, evenly spaced along each feature and ``inset`` clear
+of its ends (more at a concave corner, where the stylus needs room), and optionally a datum
+before and after them (docs/methods.md §9.3, the stability check). Per feature, because the probe
+compensators screen and correct each feature from its own touches.
+Each touch, with n the outward normal of the nominal surface at its point Q, R the stylus
+radius and c the clearance:
 
 1. the route to its approach start ``A = Q + (R + c) n`` (:mod:`postproc.probe_route`: near
    the part at the travel feed, along the envelope at rapid);
@@ -40,6 +43,7 @@ import numpy as np
 
 from .diagnostics import InternalError, Location, OptionError, Reporter, SafetyError
 from .emitter import Style
+from .features import MIN_TOUCHES, Feature, Spread
 from .geometry import segment_of
 from .motion import ARC, Move
 from .probe_printout import (AFTER, BEFORE, END_STATEMENT, POINT, VAR_COUNT, VAR_DIVISOR, VAR_I, VAR_INDEX, VAR_K,
@@ -68,12 +72,13 @@ class Cycle:
     feed: float = 50.0  #: G31
     travel_feed: float = 1000.0  #: G01 moves near the part
     program_number: int = 8100
-    inset: float = 0.0  #: arc length kept free of touches at both ends of the stretch
+    inset: float = 0.5  #: arc length kept free of touches at both ends of every feature
     datum: tuple[float, float] | None = None  #: (x, z) the datum touch aims at, radius mm
     datum_on: str = "face"  #: face (touched from +Z), diameter (from +X) or both
     tool: str | None = None  #: T word digits, e.g. "0909"
     probe_on: str | None = None  #: M code digits
     probe_off: str | None = None
+    per_feature: int = MIN_TOUCHES  #: the fewest touches on each feature with room for them
 
     @property
     def reach(self) -> float:
@@ -91,6 +96,8 @@ class Cycle:
                 raise OptionError(f"{name} {value:g}: must be positive")
         if not (math.isfinite(self.inset) and self.inset >= 0):
             raise OptionError(f"--inset {self.inset:g}: must not be negative")
+        if self.per_feature < 1:
+            raise OptionError(f"--per-feature {self.per_feature}: at least one touch per feature")
         if not 1 <= self.program_number <= 9999:
             raise OptionError(f"--program-number {self.program_number}: a FANUC program number is 1 to 9999")
         if self.datum_on not in DATUM_SURFACES:
@@ -138,6 +145,8 @@ class ProbingProgram:
     home: tuple[float, float]  #: where the program starts and ends (the envelope's corner)
     leave: tuple[Leg, ...]  #: from the last touch's start back home
     lines: tuple[int, int]  #: source lines of the profile's first and last move
+    features: tuple[Feature, ...] = ()  #: the profile's lines and arcs
+    spread: Spread | None = None  #: how many touches each feature got, and the room kept at its ends
     text: str = ""
 
     @property
@@ -148,26 +157,11 @@ class ProbingProgram:
 # ---------------------------------------------------------------------------- where to touch
 
 
-def places(nominal: Nominal, s) -> tuple[np.ndarray, np.ndarray]:
-    """Points and outward normals of the profile at arc lengths ``s`` (as :meth:`Nominal.stations`)."""
-    profile = nominal.profile
-    offsets = profile.offsets
-    s = np.atleast_1d(np.asarray(s, dtype=float))
-    segment = np.clip(np.searchsorted(offsets, s, side="right") - 1, 0, len(profile.segments) - 1)
-    param = np.clip((s - offsets[segment]) / np.diff(offsets)[segment], 0.0, 1.0)
-    points = np.array([profile.segments[i].point_at(t) for i, t in zip(segment, param)]).reshape(-1, 2)
-    return points, nominal.outward(segment, param)
-
-
-def stations(nominal: Nominal, count: int, inset: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``count`` touches evenly spaced along the profile, ``inset`` from both ends: points, normals, s."""
-    length = nominal.profile.length
-    if 2.0 * inset >= length and count > 1:
-        raise OptionError(f"--inset {inset:g} leaves nothing of the {length:.3f} mm profile to probe",
-                          Location(nominal.program))
-    s = np.linspace(inset, length - inset, count) if count > 1 else np.array([length / 2.0])
-    points, normals = places(nominal, s)
-    return points, normals, s
+def stations(nominal: Nominal, count: int, inset: float = 0.0, minimum: int = MIN_TOUCHES, radius: float = 0.0,
+             clearance: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``count`` touches over the profile's features (:meth:`Nominal.spread`): points, normals, s."""
+    s = nominal.spread(count, inset, minimum, radius, clearance).s
+    return *nominal.places(s), s
 
 
 def standoff_path(nominal: Nominal, s0: float, s1: float, distance: float, step: float) -> np.ndarray:
@@ -229,7 +223,9 @@ class _Planner:
 
     def plan(self) -> ProbingProgram:
         cycle = self.cycle
-        points, normals, s = stations(self.nominal, cycle.points, cycle.inset)
+        spread = self.nominal.spread(cycle.points, cycle.inset, cycle.per_feature, cycle.stylus_radius, cycle.clearance)
+        s = spread.s
+        points, normals = self.nominal.places(s)
         datums = self._datums()
         targets = [tuple(p) for p in points] + [q for q, _ in datums]
         grow = cycle.stylus_radius + cycle.clearance
@@ -248,8 +244,8 @@ class _Planner:
             if line is not None:
                 raise SafetyError(
                     f"{name} (x {q[0]:.3f} z {q[1]:.3f}): the stylus would meet the surface of line {line} before "
-                    f"it reaches the point; keep the touches away from the ends of the stretch (--inset MM), "
-                    f"narrow it (--from-line/--to-line) or choose another datum", Location(self.program))
+                    f"it reaches the point; keep the touches farther from the ends of the features (--inset MM), "
+                    f"narrow the stretch (--from-line/--to-line) or choose another datum", Location(self.program))
             route = self._route(previous, (start, n, station, name), envelope)
             a = self.grid.snap(*start)
             e = self.grid.snap(*(q + (cycle.stylus_radius - cycle.reach) * n))
@@ -258,7 +254,8 @@ class _Planner:
             previous = (start, n, station, name)
         leave = tuple(self._route(previous, None, envelope))
         first, last = self.nominal.moves[0].line, self.nominal.moves[-1].line
-        planned = ProbingProgram(self.program, cycle, tuple(touches), envelope.corner, leave, (first, last))
+        planned = ProbingProgram(self.program, cycle, tuple(touches), envelope.corner, leave, (first, last),
+                                 self.nominal.features, spread)
         self._within_limits(planned)
         return planned
 

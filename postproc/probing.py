@@ -7,7 +7,9 @@ compensators (``omp-feedback``, ``tool-offset``) build on.
    ``repeatability_mm`` on every axis, or the inspection is refused (SafetyError) unless forced;
 3. the deviation of each touched point from the nominal profile (any chain of lines and arcs)
    along the profile's normal pointing out of the material, positive = material left;
-4. screening for the nub and outliers (:mod:`postproc.screening`).
+4. screening for the nub and outliers (:mod:`postproc.screening`), each touch only against
+   the touches on its own feature of the profile (:mod:`postproc.features`): never across a
+   corner, where the error a cut leaves steps.
 
 :func:`probe_profile` does all four; the steps are public for compensators that need one.
 """
@@ -20,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .diagnostics import Location, MeasurementError, Reporter, SafetyError
+from .features import Feature, features, owners
 from .geometry import Nearest, Profile, as_points
 from .measurements.probe import ProbeFile, Touches
 from .pretravel import CalibrationModel
@@ -163,17 +166,39 @@ class ProbedProfile(Screened):
     deviations: Deviations
     screening: Screening
     notes: tuple[str, ...]  #: for reports: calibration, datum check, screening
+    features: tuple[Feature, ...] = ()  #: the profile's
+    feature: np.ndarray | None = None  #: index into ``features`` of each touch's feature
 
     @property
     def kept(self) -> np.ndarray:
         return self.screening.kept
 
 
+def screen_by_feature(deviations: Deviations, found: tuple[Feature, ...], probe: ProbeFile, points: np.ndarray,
+                      index=None, *, floor: float | None = None, fill: str = "extrapolate",
+                      reporter: Reporter | None = None) -> tuple[np.ndarray, Screening]:
+    """Screen touches against the touches on their own feature: (feature of each touch, screening).
+
+    :param points: the touched points; ``index``: their rows' places in ``probe`` (default all).
+    :param floor: mm, the smallest residual called an outlier; default the file's
+        ``repeatability_mm``, else 0.002.
+    """
+    index = np.arange(len(points)) if index is None else np.asarray(index)
+    feature = owners(found)[deviations.nearest.index]
+    if floor is None:
+        floor = probe.repeatability if probe.repeatability is not None else 0.002
+    screening = screen(deviations.deviation, deviations.nearest.s, [probe.lines[i] for i in index], groups=feature,
+                       names=[f.describe() for f in found], axis_distance=np.abs(points[:, 0]),
+                       nub_zone=probe.stylus_radius, floor=floor, fill=fill, path=probe.path, reporter=reporter)
+    return feature, screening
+
+
 def probe_profile(probe: ProbeFile, profile: Profile, calibration: CalibrationModel | None = None, *,
                   reporter: Reporter | None = None, force: bool = False, floor: float | None = None,
-                  fill: str = "extrapolate") -> ProbedProfile:
-    """Check, correct and compare a probe file with the nominal profile, and screen it.
+                  fill: str = "extrapolate", lines: tuple[int, ...] | None = None) -> ProbedProfile:
+    """Check, correct and compare a probe file with the nominal profile, and screen it per feature.
 
+    :param lines: the source line of each segment of ``profile``, to name features in messages.
     :param force: use the points even though the datum moved (the check's override).
     :param floor: mm, the smallest residual called an outlier; default the file's
         ``repeatability_mm``, else 0.002.
@@ -187,10 +212,7 @@ def probe_profile(probe: ProbeFile, profile: Profile, calibration: CalibrationMo
         notes += calibration.report()
     points, k = touched_points(probe, calibration, reporter)
     deviations = profile_deviations(points, probe.approach, profile, probe)
-    if floor is None:
-        floor = probe.repeatability if probe.repeatability is not None else 0.002
-    screening = screen(deviations.deviation, deviations.nearest.s, probe.lines,
-                       axis_distance=np.abs(points[:, 0]), nub_zone=probe.stylus_radius, floor=floor, fill=fill,
-                       path=probe.path, reporter=reporter)
+    found = features(profile, lines)
+    feature, screening = screen_by_feature(deviations, found, probe, points, floor=floor, fill=fill, reporter=reporter)
     notes += screening.notes
-    return ProbedProfile(probe.path, probe.lines, points, k, deviations, screening, tuple(notes))
+    return ProbedProfile(probe.path, probe.lines, points, k, deviations, screening, tuple(notes), found, feature)

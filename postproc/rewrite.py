@@ -139,6 +139,12 @@ def travel_after(move: Move, last: tuple[int, int]) -> tuple[int, int]:
         theta = theta0 + sweep
         sign = 1.0 if sweep >= 0 else -1.0
         tx, tz = -sign * math.sin(theta), sign * math.cos(theta)
+        if _way(tx) == 0 or _way(tz) == 0:  # the arc ends where an axis stops: it last travelled as just before
+            before = theta - math.copysign(min(1e-6, abs(sweep) / 2.0), sweep)
+            if _way(tx) == 0:
+                tx = -sign * math.sin(before)
+            if _way(tz) == 0:
+                tz = sign * math.cos(before)
     x, z = _way(tx), _way(tz)
     return (x or last[0], z or last[1])
 

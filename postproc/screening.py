@@ -5,18 +5,26 @@ When the tool sits slightly off the Y = 0 plane it leaves a nub on the spindle a
 pole reads up to +0.02 mm high. Such a reading says nothing about the rest of the path and
 must not drive the compensation; neither must a stray touch (a chip, a coolant drop).
 
-The rule, along the profile (points ordered by arc length ``s``):
+Points are screened only against points of their own group: the feature of the profile they
+lie on (:mod:`postproc.features`). The error a cut leaves steps at a corner, so a trend taken
+across one would call good points on either side outliers. Within a group, points ordered
+by arc length ``s``:
 
-1. a robust local trend: LOWESS (local straight lines, tricube weights over the ``frac``
-   nearest points, three bisquare robustness passes), so a single bad point neither bends the
-   trend nor hides behind it;
+1. a robust trend: from 6 points on, LOWESS (local straight lines, tricube weights over the
+   ``frac`` nearest points, three bisquare robustness passes); with 4 or 5 points, Siegel's
+   repeated-median straight line (right while no more than half the points are bad); with
+   3 points, the two that agree best stand for the group: the one farthest from the median
+   is judged against their mean, with their half-difference as the scale, and neither of
+   them is dropped. Fewer than 3 points are not screened (one bad touch cannot be told
+   from two good ones): whoever relies on them must say so (the probe compensators' minimum
+   evidence per feature);
 2. residuals from the trend, their robust scale ``sigma = 1.4826 MAD``, and a point is dropped
    when its residual exceeds ``max(cutoff * sigma, floor)`` (``floor``: differences below the
    probe's repeatability are never called outliers);
 3. a dropped point with a positive residual within ``nub_zone`` of the spindle axis is the
    nub; any other is an outlier.
 
-A dropped point is replaced, never silently removed:
+A dropped point is replaced, never silently removed, from good points of its own group:
 
 - ``fill="extrapolate"`` (default): by a straight line fitted to the nearest ``FILL_POINTS``
   good points along the profile, evaluated at the dropped point: an interpolation when good
@@ -25,8 +33,9 @@ A dropped point is replaced, never silently removed:
   point's value instead;
 - ``fill="nearest"``: by the nearest good point's value, always (the source's other suggestion).
 
-More than ``max_fraction`` of the points dropped means the data do not follow a smooth
-profile at all (a wrong calibration or program): that is an error, not a cleaning job.
+More than ``max_fraction`` of a group's points dropped (and more than one) means the data do
+not follow a smooth profile at all (a wrong calibration or program): that is an error, not a
+cleaning job.
 """
 
 from __future__ import annotations
@@ -38,7 +47,8 @@ import numpy as np
 from .diagnostics import Location, MeasurementError, Reporter
 
 MAD_SIGMA = 1.4826  #: MAD to standard deviation for normal data
-MIN_POINTS = 6  #: fewer points than this are not screened
+MIN_POINTS = 3  #: fewer points than this (in a group) are not screened
+LOWESS_POINTS = 6  #: from this many points on, the trend is LOWESS; below, a robust straight line
 FILL_POINTS = 4  #: good points a replacement is fitted to
 FILLS = ("extrapolate", "nearest")
 
@@ -69,9 +79,9 @@ class Screening:
 
     deviation: np.ndarray  #: mm, cleaned
     kept: np.ndarray  #: bool, False where a point was dropped
-    trend: np.ndarray  #: mm, the robust local trend
-    sigma: float  #: mm, robust scale of the residuals from the trend
-    threshold: float  #: mm, the residual beyond which a point is dropped
+    trend: np.ndarray  #: mm, the robust local trend of each point's group
+    sigma: np.ndarray  #: mm, robust scale of the residuals from the trend, of each point's group
+    threshold: np.ndarray  #: mm, the residual beyond which a point of that group is dropped
     dropped: tuple[Dropped, ...]
     notes: tuple[str, ...]
 
@@ -126,12 +136,52 @@ def _replacement(i: int, s: np.ndarray, y: np.ndarray, good: np.ndarray, fill: s
     return value, ("extrapolated" if beyond > 0.0 else "interpolated"), used
 
 
-def screen(deviation, s, rows=None, *, axis_distance=None, nub_zone: float = 3.0, cutoff: float = 3.5,
-           floor: float = 0.002, fill: str = "extrapolate", max_fraction: float = 0.25, path: str | None = None,
-           reporter: Reporter | None = None) -> Screening:
+def repeated_median(s: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Siegel's repeated-median straight line through (s, y), at the points ``s``.
+
+    The slope is the median over the points of the median slope from each to the others, so
+    up to half the points may be wrong without moving it. Points at one place give no slope."""
+    ds = s[:, None] - s[None, :]
+    dy = y[:, None] - y[None, :]
+    apart = ds != 0.0
+    slopes = np.where(apart, dy / np.where(apart, ds, 1.0), np.nan)
+    inner = [np.median(row[np.isfinite(row)]) for row in slopes if np.isfinite(row).any()]
+    slope = float(np.median(inner)) if inner else 0.0
+    level = float(np.median(y - slope * s))
+    return level + slope * s
+
+
+def _judged(s: np.ndarray, y: np.ndarray, cutoff: float, floor: float) -> tuple[np.ndarray, float, float]:
+    """(trend, sigma, threshold) of one group of at least MIN_POINTS points, in their order."""
+    n = len(y)
+    if n == 3:
+        suspect = int(np.argmax(np.abs(y - np.median(y))))
+        others = [i for i in range(3) if i != suspect]
+        trend = y.copy()
+        trend[suspect] = y[others].mean()
+        sigma = abs(y[others[0]] - y[others[1]]) / 2.0
+        return trend, sigma, max(cutoff * sigma, floor)
+    if n < LOWESS_POINTS:
+        trend = repeated_median(s, y)
+        sigma = MAD_SIGMA * float(np.median(np.abs(y - trend)))
+        return trend, sigma, max(cutoff * sigma, floor)
+    order = np.argsort(s, kind="stable")
+    trend = np.empty(n)
+    trend[order] = lowess(s[order], y[order])
+    residual = y - trend
+    sigma = MAD_SIGMA * float(np.median(np.abs(residual - np.median(residual))))
+    return trend, sigma, max(cutoff * sigma, floor)
+
+
+def screen(deviation, s, rows=None, *, groups=None, names=None, axis_distance=None, nub_zone: float = 3.0,
+           cutoff: float = 3.5, floor: float = 0.002, fill: str = "extrapolate", max_fraction: float = 0.25,
+           path: str | None = None, reporter: Reporter | None = None) -> Screening:
     """Find the nub and outliers among ``deviation`` (mm) at arc lengths ``s`` and replace them.
 
     :param rows: the data row of each point, for the notes (1-based lines of the probe file).
+    :param groups: the group (feature) of each point, integers: points are screened, and
+        dropped ones replaced, only within their group. None: one group.
+    :param names: a name for each group number (``names[g]``), for notes and errors.
     :param axis_distance: each touched point's distance from the spindle axis (|x|, mm); without
         it no point is called the nub.
     :param nub_zone: how near the axis (mm) a high point is the nub; the stylus radius is a good
@@ -141,6 +191,7 @@ def screen(deviation, s, rows=None, *, axis_distance=None, nub_zone: float = 3.0
     :param fill: "extrapolate" or "nearest" (see the module documentation).
     :param path: the probe file, for messages; ``reporter`` gets one warning per dropped point.
     :returns: the cleaned deviations, which points were dropped, why, and what replaced them.
+    :raises MeasurementError: a group with more bad points than ``max_fraction`` allows.
     """
     if fill not in FILLS:
         raise ValueError(f"fill must be one of {FILLS}, not {fill!r}")
@@ -148,36 +199,46 @@ def screen(deviation, s, rows=None, *, axis_distance=None, nub_zone: float = 3.0
     s = np.asarray(s, dtype=float)
     n = len(y)
     rows = tuple(rows) if rows is not None else (None,) * n
-    kept = np.ones(n, dtype=bool)
-    if n < MIN_POINTS:
-        note = f"{n} points: too few to screen for outliers (at least {MIN_POINTS}); none dropped"
-        return Screening(y.copy(), kept, y.copy(), 0.0, 0.0, (), (note,))
-    order = np.argsort(s, kind="stable")
-    trend = np.empty(n)
-    trend[order] = lowess(s[order], y[order])
-    residual = y - trend
-    sigma = MAD_SIGMA * float(np.median(np.abs(residual - np.median(residual))))
-    threshold = max(cutoff * sigma, floor)
-    kept = np.abs(residual) <= threshold
-    count = int(n - kept.sum())
-    if count > max_fraction * n:
-        raise MeasurementError(
-            f"{count} of {n} points lie more than {threshold:.4f} mm from the trend of their neighbours: the "
-            "points do not follow a smooth profile (check the calibration, the program and the file)",
-            Location(path) if path else None,
-        )
+    group = np.zeros(n, dtype=int) if groups is None else np.asarray(groups, dtype=int)
     near = np.zeros(n, dtype=bool) if axis_distance is None else np.asarray(axis_distance, dtype=float) <= nub_zone
+    kept = np.ones(n, dtype=bool)
+    trend, sigma, threshold = y.copy(), np.zeros(n), np.zeros(n)
     cleaned = y.copy()
-    dropped = []
-    for i in np.nonzero(~kept)[0]:
-        value, how, used = _replacement(int(i), s, y, kept, fill)
-        kind = "nub" if near[i] and residual[i] > 0 else "outlier"
-        cleaned[i] = value
-        dropped.append(Dropped(int(i), rows[i], kind, float(y[i]), float(trend[i]), value, how,
-                               tuple(rows[j] for j in used)))
+    dropped: list[Dropped] = []
+    notes: list[str] = []
+    for g in np.unique(group):
+        members = np.flatnonzero(group == g)
+        count = len(members)
+        name = f"{names[g]}: " if names is not None else ""
+        if count < MIN_POINTS:
+            notes.append(f"{name}{count} point{'s' if count != 1 else ''}: too few to screen for outliers "
+                         f"(at least {MIN_POINTS}); none dropped")
+            continue
+        ys, ss = y[members], s[members]
+        local_trend, local_sigma, local_threshold = _judged(ss, ys, cutoff, floor)
+        residual = ys - local_trend
+        good = np.abs(residual) <= local_threshold
+        trend[members], sigma[members], threshold[members] = local_trend, local_sigma, local_threshold
+        bad = int(count - good.sum())
+        if bad > max(1.0, max_fraction * count):
+            raise MeasurementError(
+                f"{name}{bad} of {count} points lie more than {local_threshold:.4f} mm from the trend of their "
+                "neighbours: the points do not follow a smooth profile (check the calibration, the program and the "
+                "file)", Location(path) if path else None)
+        notes.append(f"{name}{count} points: robust sigma {local_sigma:.4f} mm, threshold {local_threshold:.4f} mm "
+                         f"({cutoff:g} sigma, at least {floor:g})")
+        kept[members] = good
+        for k in np.flatnonzero(~good):
+            i = int(members[k])
+            value, how, used = _replacement(int(k), ss, ys, good, fill)
+            kind = "nub" if near[i] and residual[k] > 0 else "outlier"
+            cleaned[i] = value
+            dropped.append(Dropped(i, rows[i], kind, float(y[i]), float(local_trend[k]), value, how,
+                                   tuple(rows[members[j]] for j in used)))
+    dropped.sort(key=lambda d: d.index)
     nubs = sum(d.kind == "nub" for d in dropped)
-    notes = [f"screening {n} points: robust sigma {sigma:.4f} mm, threshold {threshold:.4f} mm "
-             f"({cutoff:g} sigma, at least {floor:g}); {nubs} nub and {len(dropped) - nubs} outlier points dropped"]
+    where = "" if groups is None else f" in {len(np.unique(group))} features, each against its own"
+    notes.append(f"screening {n} points{where}: {nubs} nub and {len(dropped) - nubs} outlier points dropped")
     for d in dropped:
         notes.append(f"{path or 'probe'}:{d.row}: {d.describe()}" if d.row is not None else d.describe())
         if reporter is not None:

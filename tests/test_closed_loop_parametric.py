@@ -25,7 +25,7 @@ from postproc.diagnostics import ModelError
 from postproc.geometry import segment_of
 from postproc.measurements.ballbar import read_ballbar
 from postproc.motion import ARC, LINE, Move
-from postproc.rewrite import pieces
+from postproc.rewrite import pieces, travel_after
 from postproc.simulator import read_program
 from postproc_plugins.effective_angle import EffectiveAngle
 from postproc_plugins.parametric import Parametric
@@ -138,7 +138,7 @@ def table_6_7(tmp_path_factory) -> dict[str, dict]:
         result = cli("compensate", HEMISHELL, "--plugin", plugin, "--ballbar", ccw, "--ballbar", cw,
                      "-o", program)
         assert result.exit_code == 0, result.stderr
-        results[plugin] = inspected(program, machine, folder)
+        results[plugin] = {**inspected(program, machine, folder), "stderr": result.stderr}
     return results
 
 
@@ -170,6 +170,18 @@ def test_both_beat_no_compensation(table_6_7):
     # rho = 57.15 / 100, that is 2 (1 - rho^2) = 1.35 times as much; backlash it gets right only
     # where the bar reads along the axis.
     assert table_6_7["parametric"]["std_um"] < none["std_um"]
+
+
+def test_effective_angle_says_when_it_widens_the_spread_and_parametric_has_nothing_to_say(table_6_7):
+    """The spread effective-angle leaves is predicted from the traces alone, and said, with the figures."""
+    none, effective = table_6_7["none"], table_6_7["effective-angle"]
+    assert effective["std_um"] > none["std_um"]
+    warning = next(line for line in effective["stderr"].splitlines() if "worse than no compensation" in line)
+    assert "effective-angle: predicted to leave this program's feed moves worse than no compensation in" in warning
+    assert "sigma" in warning.split(" (")[0]
+    predicted = float(warning.split("sigma ")[-1].split(" -> ")[1].split(" um")[0])
+    assert predicted == pytest.approx(effective["std_um"], abs=1.0)  # the prediction is what the cut shows
+    assert "worse than no compensation" not in table_6_7["parametric"]["stderr"]
 
 
 # -- fitting ------------------------------------------------------------------------------
@@ -261,6 +273,21 @@ def test_a_run_of_pieces_is_corrected_piece_by_piece(plugin):
         assert np.array_equal(shift, -np.column_stack([np.broadcast_to(e_x, u.shape), np.broadcast_to(e_z, u.shape)]))
 
 
+def test_effective_angle_takes_the_table_of_the_direction_a_standing_axis_last_travelled(tmp_path):
+    """Backlash only: an axis that stands still lags by b/2 against its last direction of travel, so a
+    Z-only move takes the X table of that direction (and the mean of both only when nothing tells it)."""
+    compensator = fitted(EffectiveAngle, *synthetic(tmp_path, lambda u, w, dx, dz: (-0.003 * dx, -0.002 * dz)))
+    plus, minus = (np.interp(90.0, *compensator.tables[f"x{sign}"]) for sign in "+-")
+    assert plus < -0.001 and minus > 0.001  # not the full b/2: the Z error leaks in (methods.md 7)
+    arc = Move(ARC, 5, 80.0, 20.0, 90.0, 10.0, xc=80.0, zc=10.0, cw=False, feed=0.1)  # G03: X travels +, Z -
+    last = travel_after(arc, (0, 0))
+    assert last == (1, -1)
+    for before, table in ((last, plus), ((-1, -1), minus), ((0, -1), 0.5 * (plus + minus))):
+        (piece,) = pieces(Move(LINE, 6, 90.0, 10.0, 90.0, -30.0, feed=0.1), before)
+        assert piece.x_direction == before[0]
+        assert np.allclose(compensator.correct(piece)[:, 0], -table, atol=1e-12)
+
+
 def test_effective_angle_keeps_the_direction_of_travel_and_reads_uniform_scaling_exactly(tmp_path):
     compensator = fitted(EffectiveAngle, *synthetic(tmp_path, lambda u, w, dx, dz: (-0.003 * dx, -0.002 * dz)))
     for axis, half in (("x", 0.003), ("z", 0.002)):
@@ -304,7 +331,7 @@ def test_outside_the_square_the_error_functions_are_held_unless_extrapolated(plu
         in warnings[0] and "--option extrapolate=true" in warnings[0]
     extrapolated = cli("compensate", str(program), "--plugin", plugin, "--ballbar", CCW, "--ballbar", CW,
                        "--option", "extrapolate=true")
-    assert extrapolated.exit_code == 0 and "warning:" not in extrapolated.stderr
+    assert extrapolated.exit_code == 0 and "leaves the square" not in extrapolated.stderr
 
     held = fitted(PLUGINS[plugin], CCW, CW)
     points, shift = correction(held, 100.0, 10.0, 150.0, 10.0)

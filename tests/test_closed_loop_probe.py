@@ -29,6 +29,19 @@ ARC_LINE = "10"  #: the hemishell's G03
 R = 57.15
 STOCK = 0.025  #: the first pass is cut this far outside (0.0254 mm in the source; 0.001 mm diameter grid here)
 
+INCH_HEMISHELL = """%
+O1003 (HEMISHELL IN INCHES)
+G18 G20 G40 G99
+T0101
+G00 X0. Z2.441
+G01 Z2.25 F0.003
+G03 X4.5 Z0. I0. K-2.25
+G01 X4.65
+G00 Z2.441
+M30
+%
+"""
+
 CYLINDER = """%
 O3000 (PLAIN CYLINDER)
 G18 G21 G40 G99
@@ -181,6 +194,65 @@ def test_omp_feedback_moves_only_the_stretch_the_touches_cover(tmp_path):
     assert shoulder[2] == shoulder[4] == pytest.approx(-40.0 + 0.006, abs=0.0011)
 
 
+def sample_rows(tmp_path: Path, keep: list[int]) -> tuple[str, str]:
+    """The sample probe file with only some of its touches (1-based touch numbers: 1 is the nub at the pole)."""
+    sample = REPO / "samples" / "probe"
+    lines = (sample / "hemishell-pass1.csv").read_text().splitlines()
+    header = lines.index("x_mm,z_mm,approach_x,approach_z") + 1
+    kept = lines[:header] + [lines[header + i - 1] for i in keep]
+    path = tmp_path / "few.csv"
+    path.write_text("\n".join(kept) + "\n")
+    return str(path), str(sample / "artifact-calibration.csv")
+
+
+@pytest.mark.parametrize("keep", [[1], [1, 2], [2, 19]])
+def test_omp_feedback_refuses_thin_evidence_naming_the_feature_and_its_rows(keep, tmp_path):
+    """One or two touches on the arc cannot be screened for the nub: the run is refused, not a dip cut."""
+    probe, calibration = sample_rows(tmp_path, keep)
+    result = postproc("compensate", HEMISHELL, "--plugin", "omp-feedback", "--probe", probe, "--calibration",
+                      calibration)
+    assert result.exit_code == EXIT_BAD_INPUT and result.stdout == ""
+    rows = ", ".join(str(12 + i) for i in range(1, len(keep) + 1))
+    assert f"the G03 arc R57.15 on line 10 has {len(keep)} touch" in result.stderr and f"(row{'s' if len(keep) > 1 else ''} {rows})" in result.stderr
+    assert "no feature of the profile has the 3 touches omp-feedback needs" in result.stderr
+
+
+def test_omp_feedback_screens_the_nub_out_of_three_touches(tmp_path):
+    """The nub (27.7 um high) and two touches beside it: the nub is dropped, no dip is cut at the pole."""
+    probe, calibration = sample_rows(tmp_path, [1, 2, 3])
+    pipeline = Pipeline(plugins=["omp-feedback"], probe=[probe], calibration=calibration)
+    text = pipeline.compensate_text(Path(HEMISHELL).read_text())
+    report = pipeline.core.report()[0]
+    chain = report["chains"][0]
+    assert [(d["row"], d["kind"]) for d in chain["dropped"]] == [(13, "nub")]
+    arc = next(f for f in chain["features"] if f["lines"] == [10, 10])
+    assert arc["status"] == "corrected" and arc["touches"] == 3
+    assert arc["cleaned_error_um"]["mean_um"] < arc["measured_error_um"]["mean_um"] - 5.0
+    assert report["minimum_touches_per_feature"] == 3
+    pole = next(line for line in text.splitlines() if line.startswith("G01 X0. Z"))
+    assert float(pole.split("Z")[1].split()[0]) > 57.15 - 0.012  # the touches beside it read 8-9 um, the nub 28
+
+
+def test_a_feature_in_the_probed_stretch_without_touches_is_left_as_programmed_and_named(tmp_path):
+    """The shaft probed on its cylinder and its face, not on the fillet between them."""
+    program = tmp_path / "shaft.nc"
+    program.write_text(SHAFT)
+    the_machine = perfect_but(tmp_path, "[simulation.cut]\ntool_offset_x_mm = 0.010\ntool_offset_z_mm = -0.006\n")
+    probe = tmp_path / "p.csv"
+    ok("simulate", "probe", program, "--machine", the_machine, "--inset", "0.5", "--points", "12", "-o", probe)
+    rows = probe.read_text().splitlines()
+    header = rows.index("x_mm,z_mm,approach_x,approach_z") + 1
+    # the fillet's touches come in at a slant; the cylinder's along X, the chamfer's at 45 deg from -Z
+    fillet = [row for row in rows[header:] if float(row.split(",")[1]) < -20.0 and 0.0 not in
+              [float(value) for value in row.split(",")[2:]]]
+    assert len(fillet) == 3
+    probe.write_text("\n".join(row for row in rows if row not in fillet) + "\n")
+    result = ok("compensate", program, "--plugin", "omp-feedback", "--probe", probe)
+    assert ("warning: omp-feedback: the G02 arc R20 on line 8 has no touch; at least 3 per feature are needed to "
+            "screen them for the nub and outliers: left as programmed") in result.stderr
+    assert "G02 X140. Z-40. R20.\n" in result.stdout  # as it was
+
+
 # -- tool-offset ----------------------------------------------------------------------------
 
 TOOL_SET = (0.020, -0.012)  #: the injected tool-setting error, radius mm
@@ -224,20 +296,87 @@ def test_tool_offset_recovers_the_tool_setting_error_and_compensating_removes_it
     assert abs(after[0]) < 1.0 and after[1] < 1.0
 
 
-def test_a_wear_offset_is_written_as_g10_with_the_controls_signs_and_the_path_is_left_alone(tool_set):
+def test_a_wear_offset_is_added_by_an_incremental_g10_after_the_units_and_stated(tool_set, tmp_path):
     _, probe, calibration = tool_set
+    report = tmp_path / "report.json"
     base = ["compensate", HEMISHELL, "--plugin", "tool-offset", "--probe", probe, "--calibration", calibration,
             "--option", "apply=wear-offset"]
-    text = ok(*base).stdout
-    # 20 um too big in radius: X-0.040 on the diameter; 12 um short in Z: Z+0.012
-    assert "\nG10 P1 X-0.040 Z0.012\n" in text
-    provenance = ("(POSTPROC", "(PLUGIN", "(INPUT", "(TOLERANCE", "(LARGEST", "(BLOCKS", "G10 ")
-    body = [line for line in text.splitlines() if not line.startswith(provenance)]
-    assert body == Path(HEMISHELL).read_text().splitlines()
+    result = ok(*base, "--report", report)
+    text = result.stdout
+    # 20 um too big in radius: U-0.040 on the diameter; 12 um short in Z: W+0.012; added to what the register holds,
+    # right after the block that sets the units and the plane, before the tool call
+    lines = text.splitlines()
+    at = lines.index("G18 G21 G40 G99")
+    assert lines[at + 1] == "G10 P1 U-0.040 W0.012" and lines.index("T0101") > at + 1
+    assert "(TOOL-OFFSET ADDED G10 P1 U-0.040 W0.012 AFTER LINE 4)" in lines
+    provenance = ("(POSTPROC", "(PLUGIN", "(INPUT", "(TOLERANCE", "(LARGEST", "(BLOCKS", "(TOOL-OFFSET", "G10 ")
+    assert [line for line in lines if not line.startswith(provenance)] == Path(HEMISHELL).read_text().splitlines()
     assert "(BLOCKS REPLACED 0 BY 0)" in text
-    # absolute values: what the register held when the part was cut, plus the correction
-    again = ok(*base, "--option", "wear-x=0.010", "--option", "wear-z=-0.002", "--option", "offset=12").stdout
-    assert "\nG10 P12 X-0.030 Z0.010\n" in again
+    assert ("warning: tool-offset: G10 P1 U-0.040 W0.012 opens the program: it adds -0.040 mm (a diameter) to the X "
+            "wear and 0.012 mm to the Z wear of offset 1 each time the program runs") in result.stderr
+    stated = json.loads(report.read_text())["compensators"][0]
+    assert stated["g10"] == "G10 P1 U-0.040 W0.012"
+    assert stated["wear_offset"] == {"number": 1, "u_mm": pytest.approx(-0.040, abs=5e-4),
+                                     "w_mm": pytest.approx(0.012, abs=5e-4), "incremental": True}
+    assert "\nG10 P12 U-0.040 W0.012\n" in ok(*base, "--option", "offset=12").stdout
+
+
+def test_a_wear_offset_in_an_inch_program_is_written_in_inches(tool_set, tmp_path):
+    _, probe, calibration = tool_set
+    inch = tmp_path / "inch.nc"
+    inch.write_text(INCH_HEMISHELL)
+    text = ok("compensate", inch, "--plugin", "tool-offset", "--probe", probe, "--calibration", calibration,
+              "--option", "apply=wear-offset").stdout.splitlines()
+    assert text[text.index("G18 G20 G40 G99") + 1] == "G10 P1 U-0.0016 W0.0005"  # -0.040 and 0.012 mm
+
+
+@pytest.mark.parametrize("eol", ["\r\n", "\r"])
+def test_the_wear_offset_block_takes_the_programs_line_ending(tool_set, tmp_path, eol):
+    _, probe, calibration = tool_set
+    program = tmp_path / "part.nc"
+    program.write_bytes(Path(HEMISHELL).read_text().replace("\n", eol).encode())
+    result = postproc("compensate", program, "--plugin", "tool-offset", "--probe", probe, "--calibration",
+                      calibration, "--option", "apply=wear-offset")
+    assert result.exit_code == 0, result.stderr
+    assert f"{eol}G18 G21 G40 G99{eol}G10 P1 U-0.040 W0.012{eol}G50 S2000{eol}".encode() in result.stdout_bytes
+
+
+@pytest.mark.parametrize("opening, problem", [
+    ("G18 G40 G99\nT0101\n", "sets no units (G20/G21) before its first tool call or move"),
+    ("T0101\nG18 G21 G40 G99\n", "sets no units (G20/G21) before its first tool call or move"),
+])
+def test_a_wear_offset_is_refused_where_the_units_are_not_set_before_the_tool_call(tool_set, tmp_path, opening,
+                                                                                      problem):
+    _, probe, calibration = tool_set
+    text = Path(HEMISHELL).read_text().replace("G18 G21 G40 G99\nG50 S2000\nT0101\n", opening + "G50 S2000\n")
+    program = tmp_path / "part.nc"
+    program.write_text(text)
+    result = postproc("compensate", program, "--plugin", "tool-offset", "--probe", probe, "--calibration",
+                      calibration, "--option", "apply=wear-offset")
+    assert result.exit_code == EXIT_REFUSED and result.stdout == ""
+    assert problem in result.stderr and "read in whatever units the control was left in" in result.stderr
+    assert f"{program}:" in result.stderr
+
+
+def test_tool_offset_leaves_a_thinly_probed_feature_out_of_the_registration(tmp_path):
+    program = tmp_path / "shaft.nc"
+    program.write_text(SHAFT)
+    the_machine = perfect_but(tmp_path, "[simulation.cut]\ntool_offset_x_mm = 0.010\ntool_offset_z_mm = -0.006\n")
+    probe, report = tmp_path / "p.csv", tmp_path / "report.json"
+    ok("simulate", "probe", program, "--machine", the_machine, "--inset", "0.5", "--points", "12", "-o", probe)
+    rows = probe.read_text().splitlines()
+    face = [row for row in rows if row.endswith(",0.0000000,-1.0000000")]
+    kept = [row for row in rows if row != face[0]]  # 2 touches left on the face
+    probe.write_text("\n".join(kept) + "\n")
+    first, second = (kept.index(row) + 1 for row in face[1:])
+    result = ok("compensate", program, "--plugin", "tool-offset", "--probe", probe, "--report", report)
+    assert (f"warning: tool-offset: the face on line 9 has 2 touches (rows {first}, {second}); at least 3 per feature "
+            "are needed to screen them for the nub and outliers: left out of the registration") in result.stderr
+    fitted = json.loads(report.read_text())["compensators"][0]
+    assert fitted["left_out"] == [{"feature": "the face on line 9", "rows": [first, second]}]
+    assert fitted["points_used"] == 9
+    assert fitted["offset_mm"]["x"] == pytest.approx(0.010, abs=1e-4)  # the chamfer still fixes Z
+    assert fitted["offset_mm"]["z"] == pytest.approx(-0.006, abs=1e-4)
 
 
 def test_a_profile_that_does_not_fix_both_axes_is_refused(tmp_path):

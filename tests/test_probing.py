@@ -401,6 +401,68 @@ def test_too_many_outliers_are_an_error_not_a_cleaning_job():
         screen(y, s, path="p.csv", max_fraction=0.05)
 
 
-def test_too_few_points_are_not_screened():
-    result = screen([0.0, 0.02, 0.0], [0.0, 1.0, 2.0])
+def test_two_points_are_not_screened_and_three_show_one_bad_point():
+    result = screen([0.0, 0.02], [0.0, 1.0])
     assert result.kept.all() and "too few to screen" in result.notes[0]
+    three = screen([0.0, 0.02, 0.0005], [0.0, 1.0, 2.0])
+    assert list(three.kept) == [True, False, True]
+    assert three.deviation[1] == pytest.approx(0.00025)  # interpolated from the other two
+
+
+# -- per feature, never across a corner ---------------------------------------------------------------------------
+
+STEP = Profile((
+    Line(0.0, 40.0, 25.0, 40.0),  # an end face, material below
+    Line(25.0, 40.0, 25.0, 0.0),  # a diameter: a square corner between them
+))
+
+
+def stepped(tmp_path, face_error: float, diameter_error: float, extra: dict[int, float] | None = None,
+            noise: float = 0.0003, seed: int = 3):
+    """Touches on the end face and the diameter, each with its own error (a tool set long in X,
+    push-off along each normal): the error steps at the corner."""
+    rng = np.random.default_rng(seed)
+    face = np.column_stack([np.linspace(1.0, 24.0, 12), np.full(12, 40.0)])
+    diameter = np.column_stack([np.full(14, 25.0), np.linspace(39.0, 1.0, 14)])
+    normals = np.concatenate([np.tile([0.0, 1.0], (12, 1)), np.tile([1.0, 0.0], (14, 1))])
+    error = np.concatenate([np.full(12, face_error), np.full(14, diameter_error)]) + rng.normal(0.0, noise, 26)
+    for index, value in (extra or {}).items():
+        error[index] += value
+    surface = np.concatenate([face, diameter]) + error[:, None] * normals
+    lines = write_probe(tmp_path / "p.csv", surface, normals)
+    return read_probe(str(tmp_path / "p.csv")), error, lines
+
+
+def test_a_step_at_a_corner_is_not_an_outlier_and_a_nub_on_its_feature_is(tmp_path):
+    probe, error, lines = stepped(tmp_path, 0.002, 0.013, extra={0: 0.02})
+    result = probe_profile(probe, STEP, lines=(5, 6))
+    assert [(d.row, d.kind) for d in result.screening.dropped] == [(lines[0], "nub")]  # 1 mm from the axis
+    assert list(result.feature) == [0] * 12 + [1] * 14
+    assert np.allclose(result.cleaned[1:], error[1:], atol=1e-6)  # the file's 7 decimals
+    assert result.cleaned[0] == pytest.approx(0.002, abs=0.001)  # from the face's own touches
+    assert any(note.startswith("the face on line 5: 12 points") for note in result.notes)
+    # screened as one run of points, the corner's 11 um step throws out good touches on both sides
+    across = screen(result.deviation, result.deviations.nearest.s, floor=0.002)
+    assert {d.index for d in across.dropped} - {0}
+
+
+def test_few_touches_on_a_feature_are_judged_among_themselves():
+    s = np.array([0.0, 1.0, 2.0, 3.0, 4.0])
+    trend = 0.010 - 0.001 * s  # a real slope along the feature: nothing to drop
+    assert screen(trend, s).kept.all() and screen(trend[:3], s[:3]).kept.all()
+    four = screen(trend[:4] + [0.0, 0.0, 0.03, 0.0], s[:4])  # the repeated median sees past one bad point in four
+    assert list(four.kept) == [True, True, False, True] and four.deviation[2] == pytest.approx(trend[2], abs=1e-9)
+    three = screen([0.041, 0.010, 0.007], s[:3])  # the nub at one end of three: judged against the other two
+    assert list(three.kept) == [False, True, True] and three.deviation[0] == pytest.approx(0.013, abs=1e-9)
+    grouped = screen(np.concatenate([trend[:3], trend[:2]]), np.concatenate([s[:3], s[:2]]), groups=[0, 0, 0, 1, 1],
+                     names=["the face on line 4", "the diameter on line 5"])
+    assert "the diameter on line 5: 2 points: too few to screen for outliers (at least 3); none dropped" \
+        in grouped.notes
+
+
+def test_a_feature_with_too_many_bad_points_names_itself():
+    s = np.arange(20.0)
+    y = np.random.default_rng(1).normal(0.0, 0.0003, 20)
+    y[[2, 5, 8, 11, 14, 17]] += 0.02
+    with pytest.raises(MeasurementError, match=r"^p\.csv: error: the face on line 4: 6 of 20 points lie more than"):
+        screen(y, s, groups=np.zeros(20, dtype=int), names=["the face on line 4"], path="p.csv")

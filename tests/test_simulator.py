@@ -18,6 +18,7 @@ from postproc.simulator import (Simulation, ballbar_test, calibrate, cut, genera
                                 probe_profile, read_program)
 from postproc.simulator.config import from_table
 from postproc.simulator.errors import play
+from postproc.simulator.nominal import run_program
 from postproc.simulator.files import calibration_text, probe_text, read_surface, surface_text, trace_text
 from support.parts import SHAFT
 
@@ -362,3 +363,28 @@ def test_cli_errors_are_the_projects_errors_with_their_exit_codes(tmp_path):
     assert result.exit_code in (EXIT_BAD_INPUT, 2) and "error" in result.stderr.lower()
     result = invoke("inspect", HEMISHELL, "--from-line", "1", "--to-line", "3")
     assert result.exit_code == EXIT_BAD_INPUT and "no feed moves" in result.stderr
+
+def test_the_virtual_lathe_obeys_g10_wear_offsets_in_the_programs_units(tmp_path):
+    """U and W add to a wear offset, X and Z set it (X, U diameters), in the units in force; the tool
+    that uses the offset cuts that much off where it would have."""
+    text = Path(HEMISHELL).read_text()
+    base = write(tmp_path, "base.nc", text)
+    worn = write(tmp_path, "worn.nc", text.replace("G18 G21 G40 G99\n", "G18 G21 G40 G99\nG10 P1 U-0.020 W0.006\n"
+                                                   "G10 P2 X1. Z1.\n"))
+    inch = write(tmp_path, "inch.nc", text.replace("G18 G21 G40 G99\n", "G18 G20 G40 G99\nG10 P1 U-0.001\nG21\n"))
+    sim = simulation()
+    assert run_program(worn)[2] == {1: pytest.approx((-0.010, 0.006)), 2: pytest.approx((0.5, 1.0))}
+    assert run_program(inch)[2] == {1: pytest.approx((-0.0127, 0.0))}
+    name, moves, wear = run_program(worn)
+    surface = cut(moves, nominal(moves, 12, 12, program=name), sim, wear)  # the arc: 2 lines further down
+    theta = np.arctan2(surface.points[:, 1], surface.points[:, 0])
+    expected = -0.010 * np.cos(theta) + 0.006 * np.sin(theta)  # the arc's normal is radial
+    assert np.allclose(radial(surface.points), expected, atol=2e-6)  # to first order in the shift
+    _, plain, _ = run_program(base)
+    same = cut(plain, nominal(plain, 10, 10), sim)
+    assert np.abs(radial(same.points)).max() < 1e-7
+    out = tmp_path / "surface.csv"
+    assert invoke("cut", worn, "--from-line", "12", "--to-line", "12", "-o", str(out)).exit_code == 0
+    written = read_surface(str(out)).points
+    theta = np.arctan2(written[:, 1], written[:, 0])
+    assert np.allclose(radial(written), -0.010 * np.cos(theta) + 0.006 * np.sin(theta), atol=3e-6)

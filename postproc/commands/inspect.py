@@ -78,7 +78,8 @@ def command(program, probe_path, calibration, band, from_line, to_line, machine,
     context = ReadContext(reporter)
     probe = read_measurement(probe_path, "probe", installed, context)
     model = fit_calibration(read_measurement(calibration, "calibration", installed, context)) if calibration else None
-    probed = probe_profile(probe, nominal, model, reporter=reporter, force=force)
+    probed = probe_profile(probe, nominal, model, reporter=reporter, force=force,
+                           lines=tuple(move.line for move in chosen))
     result = _result(name, probe_path, calibration, band, (chosen[0].line, chosen[-1].line), nominal, probed)
     ranking = set(model.report()[2:]) if model is not None else set()  # every candidate's score: --json only
     result["summary"] = [note for note in result["notes"] if note not in ranking]

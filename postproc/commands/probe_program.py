@@ -1,12 +1,15 @@
 """``postproc probe-program PROGRAM``: a FANUC probing program (macro B) for a program's profile.
 
-N touches spread along the nominal profile (the profile and its material side as
-``postproc simulate probe`` picks them), each a skip move (G31) along the nominal normal
-into the material from ``--clearance`` outside; the latched positions are printed with
-DPRNT in the format ``postproc probe-import`` reads (:mod:`postproc.probe_printout`), with
-a datum touched before and after the profile when ``--datum-x/--datum-z`` give one. How the
-program moves and what it assumes: :mod:`postproc.probe_cycle`. The program goes to ``-o
-FILE`` or stdout; a one-line summary and any warning to stderr.
+N touches spread over the features of the nominal profile (its lines and arcs; the profile
+and its material side as ``postproc simulate probe`` picks them): at least ``--per-feature``
+on each, the rest by length, ``--inset`` clear of each feature's ends (more at a concave
+corner, where the stylus needs room). Each is a skip move (G31) along the nominal normal into
+the material from ``--clearance`` outside; the latched positions are printed with DPRNT in
+the format ``postproc probe-import`` reads (:mod:`postproc.probe_printout`), with a datum
+touched before and after the profile when ``--datum-x/--datum-z`` give one. How the program
+moves and what it assumes: :mod:`postproc.probe_cycle`. The program goes to ``-o FILE`` or
+stdout; to stderr a summary with the touches each feature got, and a warning for each
+feature too short to hold one.
 """
 
 from __future__ import annotations
@@ -27,14 +30,18 @@ DEFAULTS = Cycle()
 @click.command("probe-program")
 @click.argument("program", default="-")
 @click.option("--points", type=int, default=DEFAULTS.points, show_default=True, metavar="N",
-              help="Touches spread evenly along the profile.")
+              help="Touches in all, spread over the profile's features.")
+@click.option("--per-feature", type=int, default=DEFAULTS.per_feature, show_default=True, metavar="N",
+              help="The fewest touches on each feature (line or arc) with room for them: what omp-feedback and "
+                   "tool-offset need to screen a feature.")
 @click.option("--from-line", type=int, metavar="L", help="Profile: moves from this source line.")
 @click.option("--to-line", type=int, metavar="L", help="Profile: moves up to this source line.")
 @click.option("--material", type=click.Choice(MATERIAL), default="axis", show_default=True,
               help="Which side of the profile is material: towards the spindle axis, or left/right of the "
                    "direction of travel.")
 @click.option("--inset", type=float, default=DEFAULTS.inset, show_default=True, metavar="MM",
-              help="Keep the touches this far (along the profile) from both ends of the stretch.")
+              help="Keep the touches this far (along the profile) from both ends of every feature; more at a concave "
+                   "corner, as the stylus needs.")
 @click.option("--stylus-radius", type=float, default=DEFAULTS.stylus_radius, show_default=True, metavar="MM")
 @click.option("--clearance", type=float, default=DEFAULTS.clearance, show_default=True, metavar="MM",
               help="Each approach starts this far from the nominal surface.")
@@ -54,8 +61,8 @@ DEFAULTS = Cycle()
 @click.option("--program-number", type=int, default=DEFAULTS.program_number, show_default=True, metavar="N")
 @click.option("--machine", metavar="FILE", help="A machine profile (TOML): G-code system, diameter mode, limits.")
 @click.option("-o", "--output", "output", default=STDOUT, metavar="FILE", help="Write the program here.")
-def command(program, points, from_line, to_line, material, inset, stylus_radius, clearance, overtravel, feed,
-            travel_feed, datum_x, datum_z, datum_on, tool, probe_on, probe_off, program_number, machine, output):
+def command(program, points, per_feature, from_line, to_line, material, inset, stylus_radius, clearance, overtravel,
+            feed, travel_feed, datum_x, datum_z, datum_on, tool, probe_on, probe_off, program_number, machine, output):
     """Write a FANUC probing program (G31, DPRNT) for the profile of a part program."""
     if (datum_x is None) != (datum_z is None):
         raise UsageError("a datum is a point: give --datum-x and --datum-z together")
@@ -64,9 +71,13 @@ def command(program, points, from_line, to_line, material, inset, stylus_radius,
     name, moves = read_program(program, profile, reporter)
     cycle = Cycle(points, stylus_radius, clearance, overtravel, feed, travel_feed, program_number, inset,
                   None if datum_x is None else (datum_x, datum_z), datum_on, code_digits(tool, "T"),
-                  code_digits(probe_on, "M"), code_digits(probe_off, "M"))
+                  code_digits(probe_on, "M"), code_digits(probe_off, "M"), per_feature)
     planned = plan(moves, nominal(moves, from_line, to_line, material, name), cycle, profile)
     self_check(planned, profile)
+    for feature, count in zip(planned.features, planned.spread.counts):
+        if not count:
+            reporter.warn(f"{feature.describe()} ({feature.length:.3f} mm) has no room for a touch clear of its ends: "
+                          "not probed (omp-feedback leaves it as programmed)", Location(name))
     if tool is None:
         reporter.warn("no --tool: the probing program selects no tool; index the probe before it runs",
                       Location(name))
@@ -77,3 +88,6 @@ def command(program, points, from_line, to_line, material, inset, stylus_radius,
     click.echo(f"{name}: probing program O{program_number:04d}: {len(planned.points)} points on lines {first}-{last}"
                f"{f', {datums} datum touches' if datums else ''}; read its printout with 'postproc probe-import'",
                err=True)
+    for feature, count, (start, end) in zip(planned.features, planned.spread.counts, planned.spread.insets):
+        click.echo(f"  {feature.describe()}: {count} point{'' if count == 1 else 's'}"
+                   + (f", {start:.3f} mm from its start and {end:.3f} mm from its end" if count else ""), err=True)

@@ -17,10 +17,11 @@ import sys
 import click
 
 from ..diagnostics import OptionError, Reporter
+from ..features import MIN_TOUCHES
 from ..output import STDOUT, write_atomically
-from ..simulator import ballbar_test, calibrate, cut, generator, inspect, load, nominal, probe_profile, read_program
+from ..simulator import ballbar_test, calibrate, cut, generator, inspect, load, nominal, probe_profile
 from ..simulator.files import calibration_text, probe_text, read_surface, surface_text, trace_text
-from ..simulator.nominal import MATERIAL
+from ..simulator.nominal import MATERIAL, run_program
 
 
 def _machine(function):
@@ -63,13 +64,13 @@ def _count(points: int | None) -> int | None:
 def _setup(machine, program, from_line, to_line, material):
     simulation, profile = load(machine)
     reporter = Reporter(sys.stderr)
-    name, moves = read_program(program, profile, reporter)
+    name, moves, wear = run_program(program, profile, reporter)
     reporter.close()
-    return simulation, name, moves, nominal(moves, from_line, to_line, material, name)
+    return simulation, name, moves, nominal(moves, from_line, to_line, material, name), wear
 
 
-def _surface(path, simulation, moves, profile_of):
-    return read_surface(path) if path else cut(moves, profile_of, simulation)
+def _surface(path, simulation, moves, profile_of, wear):
+    return read_surface(path) if path else cut(moves, profile_of, simulation, wear)
 
 
 @click.group("simulate")
@@ -115,8 +116,8 @@ def ballbar(machine, seed, direction, form, radius, center_x, center_z, feed, st
 @_output
 def cut_command(program, from_line, to_line, material, machine, output):
     """The surface a program's profile leaves: a dense polyline ordered along the path."""
-    simulation, name, moves, profile_of = _setup(machine, program, from_line, to_line, material)
-    surface = cut(moves, profile_of, simulation)
+    simulation, name, moves, profile_of, wear = _setup(machine, program, from_line, to_line, material)
+    surface = cut(moves, profile_of, simulation, wear)
     write_atomically(output, surface_text(surface, _provenance("cut", machine, program=name)).encode())
 
 
@@ -124,16 +125,24 @@ def cut_command(program, from_line, to_line, material, machine, output):
 @_profile_options
 @click.option("--surface", metavar="FILE", help="The surface to probe (from 'simulate cut'); default: cut it now.")
 @click.option("--points", type=int, metavar="N", help="Touches along the profile (default: the table's).")
+@click.option("--inset", type=float, metavar="MM",
+              help="Spread the touches over the profile's features as probe-program does, this far from each "
+                   "feature's ends (default: evenly along the whole profile, both ends included).")
+@click.option("--per-feature", type=int, default=MIN_TOUCHES, show_default=True, metavar="N",
+              help="With --inset: the fewest touches on each feature.")
 @_machine
 @_seed
 @_output
-def probe(program, from_line, to_line, material, surface, points, machine, seed, output):
+def probe(program, from_line, to_line, material, surface, points, inset, per_feature, machine, seed, output):
     """A probe file: touches spread along the profile, the datum before and after."""
     points = _count(points)
-    simulation, name, moves, profile_of = _setup(machine, program, from_line, to_line, material)
+    if inset is not None and not (inset >= 0 and per_feature >= 1):
+        raise OptionError(f"--inset {inset:g} --per-feature {per_feature}: the inset must not be negative and each "
+                          "feature needs a touch at least")
+    simulation, name, moves, profile_of, wear = _setup(machine, program, from_line, to_line, material)
     seed = simulation.seed if seed is None else seed
-    run = probe_profile(_surface(surface, simulation, moves, profile_of), profile_of, simulation,
-                        generator(seed, "probe"), points)
+    run = probe_profile(_surface(surface, simulation, moves, profile_of, wear), profile_of, simulation,
+                        generator(seed, "probe"), points, inset, per_feature)
     write_atomically(output, probe_text(run, _provenance("probe", machine, seed, name)).encode())
 
 
@@ -169,9 +178,9 @@ def calibrate_command(machine, seed, radius, center_x, center_z, step_deg, outpu
 def inspect_command(program, from_line, to_line, material, surface, points, as_json, machine, seed):
     """A virtual CMM: deviations from the nominal profile along its normal, and the four figures."""
     points = _count(points)
-    simulation, name, moves, profile_of = _setup(machine, program, from_line, to_line, material)
+    simulation, name, moves, profile_of, wear = _setup(machine, program, from_line, to_line, material)
     seed = simulation.seed if seed is None else seed
-    result = inspect(_surface(surface, simulation, moves, profile_of), profile_of, simulation,
+    result = inspect(_surface(surface, simulation, moves, profile_of, wear), profile_of, simulation,
                      generator(seed, "inspect"), points)
     if as_json:
         click.echo(json.dumps({"program": name, **result.as_dict()}, indent=2, allow_nan=False))

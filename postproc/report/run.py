@@ -216,13 +216,14 @@ def _compensate(pipeline, name: str, data: bytes):
 def _against_profile(run: Run, probed: Probed) -> ProbedProfile:
     """The probe file's deviations from the profile; a moved datum is reported, not fatal."""
     profile = run.program.nominal.profile
+    lines = tuple(move.line for move in run.program.nominal.moves)
     reporter = Reporter() if run.pipeline is not None else run.reporter  # a probe compensator has warned already
     try:
-        return probe_profile(probed.probe, profile, run.calibration, reporter=reporter)
+        return probe_profile(probed.probe, profile, run.calibration, reporter=reporter, lines=lines)
     except SafetyError as exc:
         probed.notes.append(f"{exc.message}: shown all the same")
         run.notes.append(f"{probed.probe.path}: {exc.message}")
-        return probe_profile(probed.probe, profile, run.calibration, reporter=Reporter(), force=True)
+        return probe_profile(probed.probe, profile, run.calibration, reporter=Reporter(), force=True, lines=lines)
 
 
 def _analyse(run: Run) -> None:

@@ -4,7 +4,9 @@ The control runs every move of the program (so that lost motion and servo lag ca
 from one move to the next); the surface is what the tool tip leaves along the profile
 (:mod:`.nominal`):
 
-1. actual tool path = commanded + machine error (:mod:`.errors`) + tool-setting offset;
+1. actual tool path = commanded + machine error (:mod:`.errors`) + tool-setting offset + the
+   wear the program's G10 blocks gave the move's offset number (``wear``,
+   :func:`.nominal.wear_added`);
 2. cutting deflection: the tool is pushed away from the material along the nominal outward
    normal m, by ``deflection_x m_x^2 + deflection_z m_z^2`` (material is left: a positive
    deviation);
@@ -33,7 +35,8 @@ from .surface import Turned
 ON_AXIS_MM = 0.01  #: a profile end this close to the spindle axis starts or ends on it
 
 
-def cut(moves: list[Move], nominal: Nominal, simulation: Simulation) -> Turned:
+def cut(moves: list[Move], nominal: Nominal, simulation: Simulation,
+        wear: dict[int, tuple[float, float]] | None = None) -> Turned:
     """The surface the profile of ``nominal`` leaves when ``moves`` run on the virtual lathe."""
     setup = simulation.cut
     place = {index: k for k, index in enumerate(nominal.indexes)}
@@ -41,6 +44,9 @@ def cut(moves: list[Move], nominal: Nominal, simulation: Simulation) -> Turned:
     actual = Machine(simulation).tool_path(commanded)
     on_profile = np.isin(commanded.move, nominal.indexes)
     tip = actual[on_profile] + np.array([setup.tool_offset_x_mm, setup.tool_offset_z_mm])
+    if wear:
+        worn = np.array([wear.get(moves[i].offset, (0.0, 0.0)) for i in range(len(moves))])
+        tip = tip + worn[commanded.move[on_profile]]
     segment = np.array([place[i] for i in commanded.move[on_profile]])
     outward = nominal.outward(segment, commanded.param[on_profile])
     tip = tip + (setup.deflection_x_mm * outward[:, 0] ** 2 + setup.deflection_z_mm * outward[:, 1] ** 2)[:, None] * outward

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..diagnostics import Location, OptionError, Reporter
+from ..features import MIN_TOUCHES, Feature, Spread, SpreadError, features, spread
 from ..geometry import Profile, segment_of
 from ..motion import ARC, CONTOUR, CYCLE, LINE, Move
 from ..profile import DEFAULT, MachineProfile
@@ -37,11 +38,46 @@ _ON_AXIS = 1e-9  #: mm: a coordinate this close to 0 is on the spindle axis
 
 def read_program(path: str, profile: MachineProfile = DEFAULT, reporter: Reporter | None = None) -> tuple[str, list[Move]]:
     """The program's name and the moves the control runs, in order, with known ends."""
+    name, moves, _ = run_program(path, profile, reporter)
+    return name, moves
+
+
+def run_program(path: str, profile: MachineProfile = DEFAULT,
+                reporter: Reporter | None = None) -> tuple[str, list[Move], dict[int, tuple[float, float]]]:
+    """As :func:`read_program`, and what its G10 blocks do to the wear offsets (:func:`wear_added`)."""
     reporter = reporter if reporter is not None else Reporter(sys.stderr)
+    moves, settings = [], []
     with Source(path) as source:
-        moves = [move for step in interpret_source(source, profile, reporter) for move in step.moves]
+        for step in interpret_source(source, profile, reporter):
+            moves.extend(step.moves)
+            if ("G", "10") in step.block.codes:
+                settings.append(step)
         name = source.name
-    return name, [move for move in moves if move.role != CONTOUR and move.kind != CYCLE and move.known]
+    return (name, [move for move in moves if move.role != CONTOUR and move.kind != CYCLE and move.known],
+            wear_added(settings, profile))
+
+
+def wear_added(steps, profile: MachineProfile = DEFAULT) -> dict[int, tuple[float, float]]:
+    """What a program's G10 blocks do to each tool wear offset (P1 and up), as (x, z) radius mm:
+    U and W add to it, X and Z set it (X, U diameters on a diameter-programmed machine), in the
+    units in force. The virtual lathe's wear offsets hold 0 before the program runs."""
+    wear: dict[int, list[float]] = {}
+    for step in steps:
+        words = dict(step.block.codes)
+        if ("G", "10") not in step.block.codes or "P" not in words:
+            continue
+        number = int(float(words["P"]))
+        if not 0 < number < 10000:
+            continue  # a work shift or a geometry offset: not modelled
+        unit = 25.4 if step.modal.inch else 1.0
+        scale = unit / (2.0 if profile.diameter_x else 1.0)
+        held = wear.setdefault(number, [0.0, 0.0])
+        for axis, (absolute, added, factor) in enumerate((("X", "U", scale), ("Z", "W", unit))):
+            if absolute in words:
+                held[axis] = float(words[absolute]) * factor
+            if added in words:
+                held[axis] += float(words[added]) * factor
+    return {number: (x, z) for number, (x, z) in wear.items()}
 
 
 def on_axis(move: Move) -> bool:
@@ -102,15 +138,42 @@ class Nominal:
         """Unit normals out of the material at places given as (segment index, parameter)."""
         return self.outward_sign * self.profile.left_normals(np.asarray(segment), np.asarray(param, dtype=float))
 
+    def places(self, s) -> tuple[np.ndarray, np.ndarray]:
+        """Points and outward normals of the profile at arc lengths ``s`` (at a join: the later segment's)."""
+        offsets = self.profile.offsets
+        s = np.atleast_1d(np.asarray(s, dtype=float))
+        segment = np.clip(np.searchsorted(offsets, s, side="right") - 1, 0, len(self.profile.segments) - 1)
+        param = np.clip((s - offsets[segment]) / np.diff(offsets)[segment], 0.0, 1.0)
+        points = np.array([self.profile.segments[i].point_at(t) for i, t in zip(segment, param)]).reshape(-1, 2)
+        return points, self.outward(segment, param)
+
     def stations(self, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``count`` places evenly spaced along the profile, both ends included: points, outward normals, s."""
-        offsets = self.profile.offsets
         s = np.linspace(0.0, self.profile.length, count)
-        segment = np.clip(np.searchsorted(offsets, s, side="right") - 1, 0, len(self.profile.segments) - 1)
-        lengths = np.diff(offsets)
-        param = np.clip((s - offsets[segment]) / lengths[segment], 0.0, 1.0)
-        points = np.array([self.profile.segments[i].point_at(t) for i, t in zip(segment, param)])
-        return points, self.outward(segment, param), s
+        return *self.places(s), s
+
+    @property
+    def features(self) -> tuple[Feature, ...]:
+        """The profile's lines and arcs (:mod:`postproc.features`), named by their source lines."""
+        return features(self.profile, tuple(move.line for move in self.moves))
+
+    def spread(self, count: int, inset: float = 0.0, minimum: int = MIN_TOUCHES, radius: float = 0.0,
+               clearance: float = 0.0) -> Spread:
+        """``count`` touches over the features, ``minimum`` on each, clear of their ends by ``inset``
+        and of concave corners by what a stylus of ``radius`` approaching from ``clearance`` out
+        needs (:func:`postproc.features.spread`).
+
+        :raises OptionError: no feature has room, or ``count`` is below the minimum on each."""
+        try:
+            return spread(self.features, count, inset, minimum, outward_sign=self.outward_sign, radius=radius,
+                          clearance=clearance)
+        except SpreadError as exc:
+            if exc.wanted is None:
+                raise OptionError(f"--inset {inset:g} leaves nothing of the {self.profile.length:.3f} mm profile to "
+                                  "probe (a feature also keeps clear of a concave corner by what the stylus needs)",
+                                  Location(self.program)) from None
+            raise OptionError(f"--points {count}: {exc}; give --points {exc.wanted} or more, or fewer per feature "
+                              "(--per-feature)", Location(self.program)) from None
 
 
 def nominal(moves: list[Move], first_line: int | None = None, last_line: int | None = None, material: str = "axis",

@@ -1,7 +1,9 @@
 """Probing a cut surface at points spread along the nominal profile of its program.
 
 ``points`` touches evenly spaced in arc length along the profile (:mod:`.nominal`), both ends
-included, each approaching along the nominal normal into the material (:mod:`.touch`).
+included, or, given an ``inset``, spread over the profile's features as ``postproc
+probe-program`` spreads them (:meth:`.nominal.Nominal.spread`); each approaches along the
+nominal normal into the material (:mod:`.touch`).
 With a datum configured, it is probed before the first touch and after the last; the
 thermal drift grows linearly over the session, so the two readings differ by it.
 """
@@ -12,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..features import MIN_TOUCHES
 from .config import Simulation
 from .nominal import Nominal
 from .surface import Plane, Turned
@@ -50,10 +53,16 @@ def datum_touches(simulation: Simulation, when: float, label: str) -> list[tuple
 
 
 def probe_profile(surface: Turned, nominal: Nominal, simulation: Simulation, rng: np.random.Generator | None,
-                  count: int | None = None) -> ProbeRun:
-    """Touch ``surface`` at ``count`` points (default: the configured number) along ``nominal``."""
+                  count: int | None = None, inset: float | None = None, per_feature: int = MIN_TOUCHES) -> ProbeRun:
+    """Touch ``surface`` at ``count`` points (default: the configured number) along ``nominal``: evenly,
+    or with an ``inset`` at least ``per_feature`` on every feature, clear of its ends."""
     count = count or simulation.probe.points
-    targets, outward, _ = nominal.stations(count)
+    if inset is None:
+        targets, outward, _ = nominal.stations(count)
+    else:
+        probe = simulation.probe
+        targets, outward = nominal.places(nominal.spread(count, inset, per_feature, probe.stylus_radius_mm,
+                                                         probe.standoff_mm).s)
     before = datum_touches(simulation, 0.0, "before")
     after = datum_touches(simulation, 1.0, "after")
     points = [Touch(surface, targets[i], -outward[i], (i + 1) / (count + 1), f"point {i + 1}") for i in range(count)]
