@@ -129,7 +129,7 @@ class ProbedChain(Screened):
 
 
 class ProbeCompensator(Compensator):
-    """A compensator fitted from one probe file and optionally a calibration (methods.md 9).
+    """A compensator fitted from one probe file and optionally a calibration (docs/methods.md §9).
 
     Subclasses survey the program with :meth:`probed_chains`. The datum is checked when the
     file is read: a datum that moved by more than ``repeatability_mm`` refuses the run

@@ -6,7 +6,7 @@ axis or not, a chamfer, a diameter, a concave G02 fillet, a shoulder face, a con
 a long diameter, a taper and a face; in mm or in inches; finished directly or roughed with G71
 and finished with G70. Each is cut on the virtual lathe, measured, compensated through the
 command line, cut again and inspected by the virtual CMM along the nominal normals, and the
-four figures (methods.md 12) are taken over the whole profile and per feature (a line or an
+four figures (docs/methods.md §12) are taken over the whole profile and per feature (a line or an
 arc), leaving out the CMM points within ``EDGE`` of a feature's ends (a corner has no normal).
 
 - probe compensators: a virtual lathe with a tool-setting error and push-off (the error each
