@@ -302,7 +302,7 @@ class Interpreter:
     def _enter_program(self, block: Block) -> None:
         """An O number starts a program; a local subprogram called from several places is
         run with as many start points and states: its blocks are not compensated."""
-        match = re.match(r"\s*[Oo:]\s*([0-9]+)", block.text)
+        match = re.match(r"[\s%]*[Oo:]\s*([0-9]+)", block.text)  # "%O1200" where the control reads on after %
         self._shared = False
         if match is None:
             return

@@ -32,6 +32,7 @@ class MachineProfile:
     diameter_x: bool = True  #: X (and U) are diameters
     input_increment: str = "IS-B"  #: least input increment system
     calculator_input: bool = False  #: a number without a decimal point is in mm (parameter DPI)
+    label_skip: bool = True  #: after the opening %, the control skips up to the first end of block
     axes: str = "XZ"  #: the axes this lathe has
     arc_radius_tolerance: float = 0.01  #: the control's arc check: start and end radii may differ by this
     max_arc_radius: float = 5000.0  #: an arc above this radius is emitted as lines

@@ -38,14 +38,14 @@ def _prepare(source: Source, profile: MachineProfile, reporter: Reporter | None,
     reporter = reporter if reporter is not None else Reporter()
 
     def reread(first: int, last: int):
-        for block in read_blocks(source.lines(), source.name):
+        for block in read_blocks(source.lines(), source.name, label_skip=profile.label_skip):
             if block.line > last:
                 return
             if block.line >= first:
                 yield block
 
     interpreter = Interpreter(profile, reporter, source.name, labels=lambda: source.labels, reread=reread)
-    return interpreter, read_blocks(source.lines(), source.name, reporter, light=light)
+    return interpreter, read_blocks(source.lines(), source.name, reporter, light=light, label_skip=profile.label_skip)
 
 
 def _syntax_first(blocks: Iterator) -> None:
