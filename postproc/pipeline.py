@@ -158,6 +158,7 @@ class Pipeline:
             z_limits=self.profile.z_limits,
             default_tolerance=self.profile.default_tolerance,
             max_correction=self.max_correction,
+            keep_unplannable=self.request.keep_unplannable,
         )
         steps = interpret_source(source, self.profile, self.reporter)
         region = Region(self.request.regions)
@@ -234,6 +235,7 @@ class Pipeline:
         lines.append(f"TOLERANCE {'DEFAULT' if tolerance is None else f'{tolerance:g} MM'} MODE {self.request.mode}")
         lines.append(f"LARGEST CORRECTION {rewriter.largest:.4f} MM")
         lines.append(f"BLOCKS REPLACED {rewriter.replaced} BY {rewriter.emitted}")
+        lines += _unplannable_lines(rewriter.unplannable)
         return "".join(f"({_safe(line)}){eol}" for line in lines)
 
     def report(self) -> list[dict[str, Any]]:
@@ -287,6 +289,14 @@ def _checked(name: str, shifts, pieces: list[Piece]) -> list[np.ndarray | None]:
     if given and not np.isfinite(np.concatenate(given)).all():
         raise PluginError(name, "returned a correction with values that are not finite")
     return checked
+
+
+def _unplannable_lines(unplannable: list[tuple[int, str]], shown: int = 10) -> list[str]:
+    """The provenance of ``--keep-unplannable``: each block left uncompensated, by line."""
+    lines = [f"UNCOMPENSATED LINE {line}: {limit}" for line, limit in unplannable[:shown]]
+    if len(unplannable) > shown:
+        lines.append(f"UNCOMPENSATED {len(unplannable) - shown} MORE BLOCKS")
+    return lines
 
 
 def _safe(text: str) -> str:

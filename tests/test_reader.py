@@ -5,10 +5,14 @@ from __future__ import annotations
 
 import pytest
 
+from conftest import SAMPLES
+
 from interpret import moves, steps
 from postproc.blocks import HEADER, TAPE
 from postproc.diagnostics import Reporter
 from postproc.reader import read_blocks
+
+CCW, CW = str(SAMPLES / "ballbar/v40r-100-ccw.csv"), str(SAMPLES / "ballbar/v40r-100-cw.csv")
 
 
 # A shop program as it came off another control: the program number on the tape mark's line,
@@ -102,3 +106,21 @@ def test_the_program_comes_back_byte_for_byte_and_checks(run, tmp_path):
     assert checked.exit_code == 0
     assert "1:2: warning: the control skips what follows '%'" in checked.stderr
 
+
+def test_compensated_blocks_keep_what_followed_their_end_of_block(run, tmp_path):
+    """A rewritten block keeps its '; (comment);' tail as written; the tape mark line stays."""
+    path = tmp_path / "tokarka.nc"
+    path.write_bytes(TOKARKA.encode())
+    model = tmp_path / "model.json"
+    assert run("fit", "--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW, "--option", "extrapolate=true",
+               "-o", str(model)).exit_code == 0
+    result = run("compensate", str(path), "--model", str(model))
+    assert result.exit_code == 0, result.stderr
+    out = result.stdout_bytes.decode()
+    assert out.startswith("%O1200(TOKARKA)\r\n(POSTPROC ")
+    retract = next(line for line in out.splitlines() if line.startswith("N200 "))
+    assert retract.endswith("M09; (Retract, Collant Off);")
+    assert "N50 " in out and "; (FINISH PASS)" in next(line for line in out.splitlines() if line.startswith("N50 "))
+    again = tmp_path / "out.nc"
+    again.write_bytes(result.stdout_bytes)
+    assert run("check", str(again)).exit_code == 0
