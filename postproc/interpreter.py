@@ -13,7 +13,10 @@ sequence: the contour blocks are interpreted as a contour (role ``contour``) fro
 cycle's start point and the program resumes after them at that start point. G70 runs
 the contour again as the finishing path (role ``replay``), then returns to its start
 point. Single-pass cycles (G90/G92/G94 in system A) and G74/G75/G76 are one row each.
-Threading (G32, G76, G92) is marked so that no compensator touches it.
+Threading (G32 in system A, G33 in B and C, G34, G35, G76, G92) is marked so that no
+compensator touches it; its end point is known. A mode that cannot be modelled (polar or
+cylindrical interpolation, mirror image, polygon turning) lets the blocks up to its cancel
+code pass through uninterpreted.
 """
 
 from __future__ import annotations
@@ -56,7 +59,8 @@ _MACRO_CALLS = frozenset(("65", "065", "66", "066"))
 #: Addresses whose plain numbers are lengths: without a decimal point they count least
 #: input increments (unless calculator-type input is set).
 _LENGTH_ADDRESSES = frozenset("XZUWIKR") | {",C", ",R"}
-_MOTION_KIND = {G.G00: RAPID, G.G01: LINE, G.G02: ARC, G.G03: ARC, G.G32: THREAD}
+_MOTION_KIND = {G.G00: RAPID, G.G01: LINE, G.G02: ARC, G.G03: ARC, G.G32: THREAD, G.VARIABLE_LEAD: THREAD,
+                G.CIRCULAR_THREAD: THREAD}
 _CYCLE_KIND = {G.TURN_CYCLE: CYCLE, G.FACE_CYCLE: CYCLE, G.THREAD_CYCLE: THREAD}
 
 
@@ -136,6 +140,7 @@ class Interpreter:
         self._skip_until: int | None = None  # label ending a region that cannot be interpreted
         self._drilling = False
         self._modal_macro = False
+        self._unmodelled: str | None = None  # a mode in force whose moves cannot be modelled (gcodes.UNMODELLED)
         self._pending: list[Step] = []  # steps held while a corner waits for its next move
         self._corner: tuple[Step, int, str, float] | None = None  # (step, move index, corner word, size)
         self._work: int | None = None  # G54..G59 in force; None until the program names one
@@ -223,6 +228,7 @@ class Interpreter:
             and self._skip_until is None
             and not self._drilling
             and not self._modal_macro
+            and self._unmodelled is None
         )
 
     def _join_corner(self, step: Step) -> bool:
@@ -266,6 +272,8 @@ class Interpreter:
                 self._skip_until = None
                 self.x = self.z = None
             return step
+        if self._unmodelled is not None and not self._leaves_unmodelled(block):
+            return Step(block, (), self.modal, interpreted=False)
         if self._expect is not None and (block.codes or block.statement is not None or block.label is not None):
             self._start_expected_contour(block)
         in_contour = self._capture is not None
@@ -278,6 +286,7 @@ class Interpreter:
             and block.delete is None
             and not self._drilling
             and not self._modal_macro
+            and self._unmodelled is None
         ):
             step = self._ordinary(block) if block.fields is None else self._canonical(block, block.fields)
             if step is not None:
@@ -314,6 +323,31 @@ class Interpreter:
                 f"O{number} is called from {calls} places: its blocks are not compensated",
                 self._location(block, 0),
             )
+
+    def _leaves_unmodelled(self, block: Block) -> bool:
+        """Whether the block ends the unmodelled mode in force (its cancel code, G07.1 with its
+        axis at 0, or the end of the program); the position is then unknown."""
+        ends = False
+        for letter, value in block.codes:
+            if type(value) is not str:
+                continue
+            if letter == "M" and value.isdigit() and int(value) in (2, 30):
+                ends = True
+            elif letter == "G":
+                kind, meaning = self.table.get(G.code_key(float(value)), (None, None))
+                if meaning == self._unmodelled and (kind == G.CANCEL or (
+                        kind == G.UNMODELLED and any(float(v) == 0.0 for l, v in block.codes
+                                                     if l != "G" and type(v) is str))):
+                    ends = True
+        if ends:
+            self._unmodelled = None
+            self.x = self.z = None
+        return ends
+
+    @staticmethod
+    def _cancels_cylindrical(words: _Words) -> bool:
+        """G07.1 C0 (the rotary axis given as 0) ends cylindrical interpolation."""
+        return any(value == 0.0 for letter, value in words.values.items() if letter not in "FSTMPQ")
 
     def _uninterpretable(self, block: Block, exc: _Uninterpretable) -> Step:
         col = exc.col if exc.col is not None else self._first_col(block)
@@ -700,6 +734,14 @@ class Interpreter:
                 modal = self._modal_setting(modal, meaning, key)
             elif kind == G.UNSUPPORTED:
                 raise _Uninterpretable(f"{G.code_name(key)} ({meaning}) is not modelled", self._col(block, "G"))
+            elif kind == G.CANCEL and one_shot is None:
+                one_shot = (key, G.DATA)  # "G50.1 X0.": the words name the mode's axes, they are no move
+            elif kind == G.UNMODELLED and not (meaning == G.CYLINDRICAL and self._cancels_cylindrical(words)):
+                self._unmodelled = meaning
+                self.modal = replace(self.modal, motion=None)
+                raise _Uninterpretable(f"{G.code_name(key)} ({meaning}) is not modelled: the blocks up to its cancel "
+                                       "code pass through uninterpreted, and positions are unknown until an absolute "
+                                       "move after it", self._col(block, "G"))
         modal = self._tool_and_feed(modal, block, words)
         if motion != modal.motion:
             modal = replace(modal, motion=motion)
@@ -953,7 +995,7 @@ class Interpreter:
 
     def _one_shot(self, block: Block, words: _Words, meaning: str) -> Step:
         values = words.values
-        if meaning in (G.DWELL, G.DATA):
+        if meaning in (G.DWELL, G.DATA, G.CORNER_ARC):  # G39's I and K give a direction, not a position
             return Step(block, (), self.modal)
         if meaning == G.COORDINATE:
             if "S" in values:
@@ -990,7 +1032,7 @@ class Interpreter:
             move = self._move(LINE, block, None if x1 != self.x else x1, None if z1 != self.z else z1, exact=False)
             self.x, self.z = move.x1, move.z1
             return Step(block, (move,), self.modal)
-        if meaning == G.LOCAL:
+        if meaning in (G.LOCAL, G.PRESET):
             self.x = self.z = None
             return Step(block, (), self.modal)
         if meaning == G.MACRO_CALL:
