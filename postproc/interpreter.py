@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Iterable, Iterator
 from . import gcodes as G
 from .blocks import BLOCK, HEADER, Block
 from .corners import CornerError, corner_moves
-from .diagnostics import InterpretationError, Location, Reporter
+from .diagnostics import InterpretationError, Location, Reporter, SafetyError
 from .fastpath import canonical_block
 from .motion import ARC, CONTOUR, CYCLE, LINE, RAPID, REPLAY, RUN, THREAD, Modal, Move, Step
 from .profile import DEFAULT, MachineProfile
@@ -59,6 +59,9 @@ _MACRO_CALLS = frozenset(("65", "065", "66", "066"))
 #: Addresses whose plain numbers are lengths: without a decimal point they count least
 #: input increments (unless calculator-type input is set).
 _LENGTH_ADDRESSES = frozenset("XZUWIKR") | {",C", ",R"}
+#: One-shot codes whose length words are no position of the tool (see _note_literals).
+_WORDS_ARE_DATA = frozenset((G.DWELL, G.DATA, G.MACRO_CALL, G.CORNER_ARC, G.ROUGH_TURN, G.ROUGH_FACE, G.PATTERN,
+                             G.FINISH))
 _MOTION_KIND = {G.G00: RAPID, G.G01: LINE, G.G02: ARC, G.G03: ARC, G.G32: THREAD, G.VARIABLE_LEAD: THREAD,
                 G.CIRCULAR_THREAD: THREAD}
 _CYCLE_KIND = {G.TURN_CYCLE: CYCLE, G.FACE_CYCLE: CYCLE, G.THREAD_CYCLE: THREAD}
@@ -83,6 +86,7 @@ class _Words:
     m: list[int] = field(default_factory=list)
     values: dict[str, float] = field(default_factory=dict)
     unknown: dict[str, str] = field(default_factory=dict)  #: letter -> why its value is unknown
+    literals: list[tuple[str, bool]] = field(default_factory=list)  #: length words written as numbers: (letter, point)
 
 
 @dataclass
@@ -118,12 +122,14 @@ class Interpreter:
         labels=None,
         reread=None,
         fast: bool = True,
+        refuse_ambiguous_units: bool = False,
     ):
         self.profile = profile
         self.reporter = reporter if reporter is not None else Reporter()
         self.file = file
         self._labels = labels  # the program's LabelIndex, or a callable that scans for it on first use
         self._fast = fast  # ordinary blocks take the fast path (tests compare it with the general one)
+        self._refuse_units = refuse_ambiguous_units  # a program that mixes decimal points with plain numbers
         self._memo: dict[tuple, tuple[Modal, Modal]] = {}
         self._interned: dict[Modal, Modal] = {}
         self._jumps: bool | None = None  # whether any label may be a jump target
@@ -141,6 +147,9 @@ class Interpreter:
         self._drilling = False
         self._modal_macro = False
         self._unmodelled: str | None = None  # a mode in force whose moves cannot be modelled (gcodes.UNMODELLED)
+        self._pointed = False  # a length word with a decimal point was read
+        self._plain: tuple[Block, str, bool] | None = None  # the first length word without one (and not 0), inch
+        self._units_said = False
         self._pending: list[Step] = []  # steps held while a corner waits for its next move
         self._corner: tuple[Step, int, str, float] | None = None  # (step, move index, corner word, size)
         self._work: int | None = None  # G54..G59 in force; None until the program names one
@@ -349,6 +358,51 @@ class Interpreter:
         """G07.1 C0 (the rotary axis given as 0) ends cylindrical interpolation."""
         return any(value == 0.0 for letter, value in words.values.items() if letter not in "FSTMPQ")
 
+    def _note_literals(self, block: Block, literals: list[tuple[str, bool]], one_shot: str | None) -> None:
+        """The general path's share of :meth:`_note_units`: the axis words of a block that moves
+        or places the tool, and I, K, R, ,C, ,R of a motion block (not a cycle's parameters,
+        a dwell, data or a macro call's arguments)."""
+        if one_shot in _WORDS_ARE_DATA:
+            return
+        plain, pointed = None, False
+        for letter, point in literals:
+            if one_shot is not None and letter not in "XZUW":
+                continue
+            if point:
+                pointed = True
+            elif plain is None:
+                plain = letter
+        if plain is not None or (pointed and not self._pointed):
+            self._note_units(block, plain, pointed)
+
+    def _note_units(self, block: Block | tuple, plain: str | None, pointed: bool) -> None:
+        """Calculator-type input (FANUC parameter 3401 bit 0, DPI) reads X118 as 118 mm; the
+        default reads it in least input increments, 0.118 mm (IS-B). A program whose axis words
+        mix decimal points with plain numbers was written for one of the two, and nothing in
+        it says which: unless the machine profile states ``calculator_input``, the first plain
+        word is a warning, or a refusal where blocks are to be rewritten."""
+        if pointed:
+            self._pointed = True
+        if plain is not None and self._plain is None:
+            self._plain = (block, plain, self.modal.inch)
+        if self._plain is None or not self._pointed or self._units_said or self.profile.calculator_input is not None:
+            return
+        self._units_said = True
+        block, letter, inch = self._plain
+        word = block.word(letter)
+        increment = self.profile.increment(inch)
+        unit = "in" if inch else "mm"
+        as_written = float(word.value)
+        message = (f"{word.text} has no decimal point while other axis words have one: read in least input "
+                   f"increments ({self.profile.input_increment}) it is {as_written * increment:g} {unit}; on a control "
+                   f"with calculator-type input (parameter 3401 bit 0, DPI) it is {as_written:g} {unit}")
+        where = self._location(block, word.col)
+        if self._refuse_units:
+            raise SafetyError(f"{message}: state which in the machine profile, calculator_input = true or false",
+                              where)
+        self.reporter.warn(f"{message}; read as the FANUC default, in increments (calculator_input = true in the "
+                           "machine profile for the other)", where)
+
     def _uninterpretable(self, block: Block, exc: _Uninterpretable) -> Step:
         col = exc.col if exc.col is not None else self._first_col(block)
         self.reporter.warn(
@@ -417,6 +471,8 @@ class Interpreter:
         inch = modal.inch
         values: dict[str, float] = {}
         motion_given = False
+        plain = None  # the first length word without a decimal point (and not 0)
+        pointed = False
         for letter, value in block.codes:
             if letter == "G":
                 mode = _FAST_MOTION.get(value)
@@ -436,8 +492,13 @@ class Interpreter:
                 return None  # the general path says what the control would
             number = float(value)
             if letter in _FAST_LENGTHS:
-                if "." not in value and not profile.calculator_input:
-                    number *= profile.increment(inch)
+                if "." in value:
+                    pointed = True
+                else:
+                    if plain is None and number != 0.0:
+                        plain = letter
+                    if not profile.calculator_input:
+                        number *= profile.increment(inch)
                 if inch:
                     number *= INCH
             values[letter] = number
@@ -460,6 +521,8 @@ class Interpreter:
         elif "I" in values or "K" in values or "R" in values:
             return None
         # commit the modal changes
+        if plain is not None or (pointed and not self._pointed):
+            self._note_units(block, plain, pointed)
         if feed != modal.feed:
             modal = self._with(modal, "feed", feed)
         if "S" in values and values["S"] != modal.spindle:
@@ -517,6 +580,8 @@ class Interpreter:
         self.modal = modal
         if x is None and z is None:
             return self._shared_step(block, (), modal) if keep else 0
+        if not self._pointed:  # a canonical length always has its decimal point
+            self._note_units(block, None, True)
         scale = INCH if inch else 1.0
         x0, z0 = self.x, self.z
         if x is None:
@@ -666,6 +731,8 @@ class Interpreter:
                 words.m.append(int(number))
                 continue
             if letter in _LENGTH_ADDRESSES:
+                if type(value) is str and not argument and (point or number != 0.0):
+                    words.literals.append((letter, point))
                 if not point and not calculator:
                     number *= increment
                 number *= scale
@@ -748,6 +815,8 @@ class Interpreter:
         if modal != self.modal:
             self.modal = modal
         self._check_addresses(block, words, one_shot)
+        if words.literals:
+            self._note_literals(block, words.literals, None if one_shot is None else one_shot[1])
 
         if 98 in words.m or 99 in words.m or 30 in words.m or 2 in words.m:
             return self._program_flow(block, words)

@@ -160,7 +160,7 @@ class Pipeline:
             max_correction=self.max_correction,
             keep_unplannable=self.request.keep_unplannable,
         )
-        steps = interpret_source(source, self.profile, self.reporter)
+        steps = interpret_source(source, self.profile, self.reporter, rewriting=True)
         region = Region(self.request.regions)
         rewriter = Rewriter(steps, self._corrector(), settings, self.reporter, source.name, selects=region)
         lead: list[str] = []  # the tape mark and program number go before the provenance block
