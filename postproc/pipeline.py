@@ -304,7 +304,7 @@ def _safe(text: str) -> str:
 
 
 def _is_program_start(text: str) -> bool:
-    stripped = text.strip()
+    stripped = text.strip().lstrip("\ufeff")  # a byte order mark before the tape mark
     return stripped == "" or stripped.startswith("%") or stripped[:1] in ("O", "o", "<", ":")
 
 

@@ -20,6 +20,9 @@ from .blocks import BLANK, BLOCK, TAPE, TRAILER, Block, Detail
 from .diagnostics import Location, Reporter
 from .fastpath import canonical_block, canonical_fields, read_ordinary
 
+#: What may stand before a tape mark: spaces, and the byte order mark a Windows editor writes
+#: at the start of a file (the control reads nothing before the opening %).
+_LEADER = " \t\ufeff"
 _UNREAD = re.compile(r"[ \t]*(?:\([^()\r\n]*\)[ \t]*)*")  # nothing but spaces and simple comments
 _PROGRAM = re.compile(r"[ \t]*([Oo][ \t]*[0-9]+|<[^<>\r\n]*>)")
 
@@ -52,7 +55,7 @@ def read_blocks(lines: Iterable[str], file: str, reporter: Reporter | None = Non
         block = read_ordinary(text, line, eol)
         if block is None:
             percent = text.find("%")
-            if percent != -1 and not text[:percent].strip(" \t"):  # a tape mark with more on its line
+            if percent != -1 and not text[:percent].strip(_LEADER):  # a tape mark with more on its line
                 block = _tape_mark(text, line, eol, file, reporter, percent, started, label_skip)
             else:
                 from .syntax import parse_block  # the grammar, built on the first unusual line

@@ -124,3 +124,18 @@ def test_compensated_blocks_keep_what_followed_their_end_of_block(run, tmp_path)
     again = tmp_path / "out.nc"
     again.write_bytes(result.stdout_bytes)
     assert run("check", str(again)).exit_code == 0
+
+
+def test_a_byte_order_mark_before_the_tape_mark_is_kept_and_skipped(run, tmp_path):
+    """Windows editors write one at the start of a file; the control reads nothing before '%'."""
+    data = b"\xef\xbb\xbf%\r\nO0007 (BOM)\r\nG21 G99\r\nG00 X50. Z2.\r\nG01 Z-10. F0.2\r\nM30\r\n%\r\n"
+    blocks = _read(data.decode("utf-8"))
+    assert blocks[0].kind == TAPE
+    path = tmp_path / "bom.nc"
+    path.write_bytes(data)
+    assert run("compensate", str(path)).stdout_bytes == data
+    model = tmp_path / "model.json"
+    assert run("fit", "--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW, "-o", str(model)).exit_code == 0
+    result = run("compensate", str(path), "--model", str(model))
+    assert result.exit_code == 0, result.stderr
+    assert result.stdout_bytes.startswith(b"\xef\xbb\xbf%\r\nO0007 (BOM)\r\n(POSTPROC ")
