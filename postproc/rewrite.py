@@ -34,7 +34,7 @@ from . import gcodes as G
 from .blocks import Block
 from .diagnostics import Location, PostprocError, Reporter, SafetyError, UnplannableBlock
 from .emitter import Style, Writer, with_motion_code
-from .geometry import TAU, Arc, Line, segment_of
+from .geometry import Arc, Line, segment_of
 from .interpreter import Interpreter
 from .motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
 from .reader import read_blocks
@@ -341,8 +341,8 @@ class Rewriter:
                 continue
             step = entry.step
             entry.edits = [None] * len(step.moves)
+            steps = self._steps(step)
             for index, move in enumerate(step.moves):
-                steps = self._steps(step)
                 if self._candidate(step, move):
                     wanted.append((entry, index, pieces(move, self._last_travel, steps)))
                 if move.role in (RUN, CONTOUR, CORNER):
@@ -617,7 +617,7 @@ class Rewriter:
         step = entry.step
         try:
             for index, (move, edit) in enumerate(zip(step.moves, entry.edits)):
-                if edit is None and move.kind != RAPID and move.role in (RUN, CONTOUR, CORNER):
+                if edit is None and move.kind != RAPID:  # written out, for it shares the block with a change
                     edit = entry.edits[index] = _as_it_is(move)
                 if edit is not None:
                     edit.plans = [self._plan(step, target) for target in edit.targets]
@@ -650,7 +650,7 @@ class Rewriter:
         remedies = []
         if limit in _REMEDIES:
             remedies.append(_REMEDIES[limit])
-        if needed is not None and needed <= 0.1:
+        if needed is not None and 0.0 < needed <= 0.1:
             remedies.append(f"--tolerance {_rounded_up(needed)} (the nearest plan for this block keeps within "
                             f"{needed * 1000:.2f} um)")
         remedies.append("--keep-unplannable to leave such blocks uncompensated")
@@ -658,10 +658,8 @@ class Rewriter:
         word = next((w for w in block.words if w.letter in _WORDS_OF[limit]), None) or next(
             (w for w in block.words if w.letter in "XZUW"), None)
         location = Location(self.file, block.line, None if word is None else word.col + 1, block.text)
-        error = UnplannableBlock(f"block cannot be compensated: {cause} ({limit}); to go on, give "
-                                 + ", or ".join(remedies), location, limit)
-        error.cause = f"{cause} ({limit})"
-        return error
+        return UnplannableBlock(f"block cannot be compensated: {cause} ({limit}); to go on, give " + ", or ".join(remedies),
+                                location, limit, f"{cause} ({limit})")
 
     def _length_rule(self, step: Step, cuts: list[Cut]):
         """How long each block must be, and why: ``rule(cuts, i) -> (mm, reason)``.

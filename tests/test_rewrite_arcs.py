@@ -16,6 +16,7 @@ from conftest import SAMPLES
 from postproc.api import Pipeline
 from postproc.diagnostics import Reporter
 from postproc.geometry import Arc, Line, Profile, segment_of
+from postproc.models import dumps
 from postproc.motion import ARC, LINE, RUN
 from postproc.profile import DEFAULT
 from postproc.program import interpret_source
@@ -31,13 +32,8 @@ INCH = 25.4
 def model(tmp_path_factory):
     """The parametric model of the sample traces, extrapolated to any arc (the issue's case)."""
     path = tmp_path_factory.mktemp("model") / "model.json"
-    Pipeline(plugins=["parametric"], ballbar=[CCW, CW], options=["extrapolate=true"]).core  # fitted once
-    from postproc.models import dumps
-    from postproc.pipeline import Pipeline as Core
-    from postproc.request import Request
-
-    core = Core(Request(["parametric"], [CCW, CW], options=["extrapolate=true"]), DEFAULT, Reporter())
-    path.write_text(dumps(core.saved_model()))
+    fitted = Pipeline(plugins=["parametric"], ballbar=[CCW, CW], options=["extrapolate=true"], reporter=Reporter())
+    path.write_text(dumps(fitted.core.saved_model()))
     return str(path)
 
 
