@@ -38,7 +38,7 @@ from .geometry import Arc, Line, segment_of
 from .interpreter import Interpreter
 from .motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
 from .reader import read_blocks
-from .resolution import Grid, rounded
+from .resolution import Grid
 from .segmenter import (RADIUS_CHECK, RESOLUTION, TOLERANCE, Cut, Limits, Plan, PlanError, Segmenter, Target,
                         measure_bends, plan, sample_params)
 
@@ -89,10 +89,14 @@ def sample_lines(parts: list[Piece]) -> None:
         first += count
 
 
-def _travel(part: Line | Arc, at: float = 0.5) -> tuple[int, int]:
-    """Which way each axis runs at ``at`` (+1, -1, or 0 when it stands still)."""
-    x, z = part.direction_at(at)
-    return _way(x), _way(z)
+def _travel(dx: float, dz: float, last: tuple[int, int], steps: tuple[float, float]) -> tuple[int, int]:
+    """Which way each axis runs over a piece that moves it by (dx, dz): the sign of that travel,
+    or the way the axis last ran when it travels less than half a step of the output grid
+    (an axis the control does not move keeps its backlash where it was; so does one that
+    only wanders by less, as an arc does about an apex it barely passes)."""
+    x = (dx > 0.0) - (dx < 0.0) if abs(dx) >= steps[0] / 2.0 else last[0]
+    z = (dz > 0.0) - (dz < 0.0) if abs(dz) >= steps[1] / 2.0 else last[1]
+    return x, z
 
 
 def pieces(move: Move, last: tuple[int, int] = (0, 0), steps: tuple[float, float] = STEPS) -> list[Piece]:
@@ -113,8 +117,8 @@ def pieces(move: Move, last: tuple[int, int] = (0, 0), steps: tuple[float, float
             part = segment  # the whole move: part(0, 1) would be the same arc
         else:
             part = segment.part(a, b)
-        x, z = _travel(part)
-        last = (x or last[0], z or last[1])
+        (x0, z0), (x1, z1) = part.start, part.end
+        last = _travel(x1 - x0, z1 - z0, last, steps)
         result.append(Piece(move, part, sample_params(part), *last))
     return result
 
@@ -156,36 +160,20 @@ def travel_after(move: Move, last: tuple[int, int], steps: tuple[float, float] =
     """The direction each axis last travelled in, once ``move`` has run: an arc's is that of
     its last piece (as :func:`pieces` splits it).
 
-    A line's is worked out with floats, not the geometry's arrays: it runs for every move of
-    the program, compensated or not."""
+    Worked out with floats, not the geometry's arrays: it runs for every move of the
+    program, compensated or not."""
     if not move.known or move.kind not in (LINE, ARC, RAPID) or not move.exact:
         return (0, 0) if not move.known else last
     if move.xc is None:
-        dx, dz = move.x1 - move.x0, move.z1 - move.z0
-        length = math.hypot(dx, dz)
-        if length == 0.0:
-            return last
-        x, z = _way(dx / length), _way(dz / length)
-        return (x or last[0], z or last[1])
+        return _travel(move.x1 - move.x0, move.z1 - move.z0, last, steps)
     if (move.x0, move.z0) == (move.xc, move.zc) == (move.x1, move.z1):
         return last
     arc = segment_of(move)
     if arc.sweep == 0.0:
         return last
     turns = _turns(arc, steps)
-    x, z = _travel(arc, (1.0 + (turns[-1] if turns else 0.0)) / 2.0)
-    return (x or last[0], z or last[1])
-
-
-def _sign(value: float) -> int:
-    return (value > 0.0) - (value < 0.0)
-
-
-def _way(component: float) -> int:
-    """The way a unit tangent's component runs: its sign once rounded to 12 places (so that
-    a line a rounding error off the axis still stands still). Beyond 1e-12 the rounding
-    cannot change the sign, and is skipped."""
-    return _sign(component) if abs(component) > 1e-12 else _sign(rounded(component, 12))
+    (x0, z0) = arc.part(turns[-1], 1.0).start if turns else (move.x0, move.z0)
+    return _travel(move.x1 - x0, move.z1 - z0, last, steps)
 
 
 #: The corrections wanted for a run of pieces, in order: an (n, 2) array or None for each.
