@@ -23,7 +23,7 @@ from .fastpath import canonical_block, canonical_fields, read_ordinary
 #: What may stand before a tape mark: spaces, and the byte order mark a Windows editor writes
 #: at the start of a file (the control reads nothing before the opening %).
 _LEADER = " \t\ufeff"
-_UNREAD = re.compile(r"[ \t]*(?:\([^()\r\n]*\)[ \t]*)*")  # nothing but spaces and simple comments
+_UNREAD = re.compile(r"[ \t;]*(?:\([^()\r\n]*\)[ \t;]*)*")  # nothing but spaces, ';' and simple comments
 _PROGRAM = re.compile(r"[ \t]*([Oo][ \t]*[0-9]+|<[^<>\r\n]*>)")
 
 

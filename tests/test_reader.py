@@ -49,6 +49,8 @@ def test_label_skip_reads_the_tape_mark_line_as_the_control_does():
 
 @pytest.mark.parametrize("line, words", [
     ("%(PART 7)", None),  # a comment only: nothing to say
+    ("%;", None),  # the end of block printed
+    ("% ; (PART 7);", None),
     ("% <SHAFT-12>", "<SHAFT-12> is not seen"),
     ("%G00 X100.", "it is never run"),
     ("% garbage )( the control never reads", "it is never run"),
