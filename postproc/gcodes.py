@@ -19,7 +19,6 @@ MOTION = "motion"  #: group 01: the value is the motion mode
 ONE_SHOT = "one-shot"  #: group 00 codes that use the block's words in their own way
 MODAL = "modal"  #: a modal setting the interpreter tracks (the value says which)
 HARMLESS = "harmless"  #: no effect on the programmed path
-UNSUPPORTED = "unsupported"  #: known, but its path cannot be modelled here
 UNMODELLED = "unmodelled"  #: starts a mode whose moves cannot be modelled (the value names it)
 CANCEL = "cancel"  #: ends the UNMODELLED mode its value names
 

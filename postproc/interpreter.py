@@ -799,8 +799,6 @@ class Interpreter:
                 one_shot = (key, meaning)
             elif kind == G.MODAL:
                 modal = self._modal_setting(modal, meaning, key)
-            elif kind == G.UNSUPPORTED:
-                raise _Uninterpretable(f"{G.code_name(key)} ({meaning}) is not modelled", self._col(block, "G"))
             elif kind == G.CANCEL and one_shot is None:
                 one_shot = (key, G.DATA)  # "G50.1 X0.": the words name the mode's axes, they are no move
             elif kind == G.UNMODELLED and not (meaning == G.CYLINDRICAL and self._cancels_cylindrical(words)):
