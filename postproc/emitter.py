@@ -150,8 +150,8 @@ class Writer:
                 parts.insert(0, _label(block))
             mode = wanted
             last = index == len(cuts) - 1
-            lead, end = (_tape_lead(block), tail) if index == 0 and block.fields is None else ("", eob)
-            lines.append(lead + style.separator.join(parts) + end + (block.eol if last else (block.eol or "\n")))
+            end = tail if index == 0 else eob
+            lines.append(style.separator.join(parts) + end + (block.eol if last else (block.eol or "\n")))
         return lines, mode
 
     def _first_words(self, block: Block, style: Style, wanted: int, mode, cut: Cut, label_last: bool) -> list[str]:
@@ -225,17 +225,6 @@ def _canonical_words(text: str, fields: tuple) -> str:
         if at != -1:
             end = min(end, at)
     return text[start:end].strip()
-
-
-def _tape_lead(block: Block) -> str:
-    """The ``%`` a block shares its line with (a control without label skip reads on after
-    it): kept in front of the replacement, so that the tape still starts there."""
-    text = block.text
-    rest = text.lstrip(" \t")
-    if rest[:1] != "%":
-        return ""
-    after = rest[1:]
-    return text[: len(text) - len(after.lstrip(" \t"))]
 
 
 def _label(block: Block) -> str:

@@ -79,7 +79,8 @@ def _tape_mark(text: str, line: int, eol: str, file: str, reporter: Reporter | N
                started: bool, label_skip: bool) -> Block:
     """A ``%`` line with more on it: the rest is a label the control skips (after the opening
     ``%``), text it never reads (after the closing one), or, on a control without label skip,
-    the program's first block."""
+    the program's first block (never rewritten: nothing is known of where the tool stands
+    before it)."""
     rest = text[percent + 1 :]
     if not started and not label_skip:
         from .syntax import parse_block
