@@ -64,6 +64,7 @@ _WORDS_ARE_DATA = frozenset((G.DWELL, G.DATA, G.MACRO_CALL, G.CORNER_ARC, G.ROUG
                              G.FINISH))
 _MOTION_KIND = {G.G00: RAPID, G.G01: LINE, G.G02: ARC, G.G03: ARC, G.G32: THREAD, G.VARIABLE_LEAD: THREAD,
                 G.CIRCULAR_THREAD: THREAD}
+_UNMODELLED_REGION = -1  #: _skip_until while a mode that cannot be modelled is in force, up to its cancel code
 _CYCLE_KIND = {G.TURN_CYCLE: CYCLE, G.FACE_CYCLE: CYCLE, G.THREAD_CYCLE: THREAD}
 
 
@@ -143,10 +144,10 @@ class Interpreter:
         self.contours: dict[tuple[int, int], _Contour] = {}
         self._capture: _Capture | None = None
         self._expect: tuple[_Contour, Modal, tuple] | None = None
-        self._skip_until: int | None = None  # label ending a region that cannot be interpreted
+        self._skip_until: int | None = None  # label ending a region that cannot be interpreted (or _UNMODELLED_REGION)
         self._drilling = False
         self._modal_macro = False
-        self._unmodelled: str | None = None  # a mode in force whose moves cannot be modelled (gcodes.UNMODELLED)
+        self._unmodelled: str | None = None  # the mode in force whose moves cannot be modelled (gcodes.UNMODELLED)
         self._pointed = False  # a length word with a decimal point was read
         self._plain: tuple[Block, str, bool] | None = None  # the first length word without one (and not 0), inch
         self._units_said = False
@@ -237,7 +238,6 @@ class Interpreter:
             and self._skip_until is None
             and not self._drilling
             and not self._modal_macro
-            and self._unmodelled is None
         )
 
     def _join_corner(self, step: Step) -> bool:
@@ -275,14 +275,16 @@ class Interpreter:
             if block.kind == HEADER:
                 self._enter_program(block)
             return Step(block, (), self.modal, interpreted=block.kind != BLOCK)
-        if self._skip_until is not None:
-            step = Step(block, (), self.modal, interpreted=False)
-            if block.label == self._skip_until:
-                self._skip_until = None
-                self.x = self.z = None
-            return step
-        if self._unmodelled is not None and not self._leaves_unmodelled(block):
-            return Step(block, (), self.modal, interpreted=False)
+        skip = self._skip_until
+        if skip is not None:
+            if skip != _UNMODELLED_REGION:
+                step = Step(block, (), self.modal, interpreted=False)
+                if block.label == skip:
+                    self._skip_until = None
+                    self.x = self.z = None
+                return step
+            if not self._leaves_unmodelled(block):
+                return Step(block, (), self.modal, interpreted=False)
         if self._expect is not None and (block.codes or block.statement is not None or block.label is not None):
             self._start_expected_contour(block)
         in_contour = self._capture is not None
@@ -295,7 +297,6 @@ class Interpreter:
             and block.delete is None
             and not self._drilling
             and not self._modal_macro
-            and self._unmodelled is None
         ):
             step = self._ordinary(block) if block.fields is None else self._canonical(block, block.fields)
             if step is not None:
@@ -349,7 +350,7 @@ class Interpreter:
                                                      if l != "G" and type(v) is str))):
                     ends = True
         if ends:
-            self._unmodelled = None
+            self._unmodelled = self._skip_until = None
             self.x = self.z = None
         return ends
 
@@ -802,7 +803,7 @@ class Interpreter:
             elif kind == G.CANCEL and one_shot is None:
                 one_shot = (key, G.DATA)  # "G50.1 X0.": the words name the mode's axes, they are no move
             elif kind == G.UNMODELLED and not (meaning == G.CYLINDRICAL and self._cancels_cylindrical(words)):
-                self._unmodelled = meaning
+                self._unmodelled, self._skip_until = meaning, _UNMODELLED_REGION
                 self.modal = replace(self.modal, motion=None)
                 raise _Uninterpretable(f"{G.code_name(key)} ({meaning}) is not modelled: the blocks up to its cancel "
                                        "code pass through uninterpreted, and positions are unknown until an absolute "
