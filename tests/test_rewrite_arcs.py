@@ -77,6 +77,20 @@ def test_the_r_arc_of_the_issue_compensates_like_its_i_k_form(model):
     assert _apart(_feed_path(r_form), _feed_path(ik_form)) < 0.002 + 0.0001
 
 
+@pytest.mark.parametrize("mode", ["auto", "arc", "line"])
+@pytest.mark.parametrize("tolerance", [None, 0.005, 0.01])
+@pytest.mark.parametrize("plugin, options", [("parametric", ["extrapolate=true"]),
+                                             ("effective-angle", ["extrapolate=true"]),
+                                             ("ballbar-inverse", ["radius-mapping=relative"])])
+def test_the_r_arc_of_the_issue_compensates_with_every_ballbar_model_tolerance_and_mode(plugin, options, tolerance,
+                                                                                          mode):
+    program = ("%\nO1000\nG18 G21 G99\nT0101\nG0 X49.3 Z3.231\nG1 Z-34.9 F0.1\nG3 X51.014 Z-35.025 R3.0\n"
+               "G1 X60.\nG0 X100. Z50.\nM30\n%\n")
+    pipeline = Pipeline(plugins=[plugin], ballbar=[CCW, CW], options=options, tolerance=tolerance, mode=mode,
+                        reporter=Reporter())
+    assert "G3 X51.014 Z-35.025 R3.0" not in pipeline.compensate_text(program, "t.nc")
+
+
 @st.composite
 def arcs(draw):
     """An arc as a CAM system or a programmer writes it, in both forms: (r program, i/k program,
