@@ -473,7 +473,6 @@ class Interpreter:
         values: dict[str, float] = {}
         motion_given = False
         plain = None  # the first length word without a decimal point (and not 0)
-        pointed = False
         for letter, value in block.codes:
             if letter == "G":
                 mode = _FAST_MOTION.get(value)
@@ -493,9 +492,7 @@ class Interpreter:
                 return None  # the general path says what the control would
             number = float(value)
             if letter in _FAST_LENGTHS:
-                if "." in value:
-                    pointed = True
-                else:
+                if "." not in value:
                     if plain is None and number != 0.0:
                         plain = letter
                     if not profile.calculator_input:
@@ -522,8 +519,10 @@ class Interpreter:
         elif "I" in values or "K" in values or "R" in values:
             return None
         # commit the modal changes
-        if plain is not None or (pointed and not self._pointed):
-            self._note_units(block, plain, pointed)
+        if plain is not None:  # seldom: is any other length word of the block written with its point?
+            self._note_units(block, plain, any("." in v for l, v in block.codes if l in _FAST_LENGTHS))
+        elif not self._pointed and (has_x or has_z):  # every length word of the block has its point
+            self._note_units(block, None, True)
         if feed != modal.feed:
             modal = self._with(modal, "feed", feed)
         if "S" in values and values["S"] != modal.spindle:
