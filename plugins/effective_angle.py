@@ -322,7 +322,3 @@ class Prediction:
 def postproc_compensators():
     return [EffectiveAngle]
 
-
-@hookimpl
-def postproc_compensators():
-    return [EffectiveAngle]

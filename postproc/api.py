@@ -60,6 +60,7 @@ class Pipeline:
         force: bool = False,
         regions: Sequence[str] = (),
         reporter: Reporter | None = None,
+        keep_unplannable: bool = False,
     ):
         if tolerance is not None and not tolerance > 0:
             raise OptionError(f"--tolerance {tolerance}: the tolerance must be positive")
@@ -74,7 +75,7 @@ class Pipeline:
         self.profile = machine or profiles.DEFAULT
         self.reporter = reporter or Reporter()
         self.request = Request(list(plugins), list(ballbar), list(probe), calibration, model, list(options), tolerance,
-                               mode, max_correction, force, list(regions))
+                               mode, max_correction, force, list(regions), keep_unplannable)
         self.core = None
         if plugins or model:
             from .pipeline import Pipeline as Core

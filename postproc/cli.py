@@ -131,13 +131,15 @@ def main(log: str | None = None) -> None:
               help="Compensate only these blocks (several: their union).")
 @click.option("--max-correction", type=float, metavar="MM", help="Refuse corrections larger than this.")
 @click.option("--force", is_flag=True, help="Compensate a program compensated before; use a failed datum check.")
+@click.option("--keep-unplannable", is_flag=True,
+              help="Leave a block that cannot be held within the tolerance uncompensated (a warning) instead of refusing.")
 @click.option("--diff", is_flag=True, help="Write a unified diff of the change to stdout instead of the program.")
 @click.option("--check", "check_only", is_flag=True, help="Write nothing; exit 1 if the program would change.")
 @click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True, help="Programs compensated at once.")
 @click.option("--report", "report_file", metavar="FILE", help="Write what each compensator fitted, and how well, as JSON.")
 @_reported
 def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, model, machine, tolerance, mode,
-               options, regions, max_correction, force, diff, check_only, jobs, report_file):
+               options, regions, max_correction, force, keep_unplannable, diff, check_only, jobs, report_file):
     """Compensate part programs; with no compensator, write the input back byte for byte."""
     from .api import Pipeline
 
@@ -156,7 +158,7 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
         raise UsageError("--diff and --check write no program: give no -o or --out-dir")
     reporter = Reporter(sys.stderr)
     pipeline = Pipeline(plugins, ballbar, probe, calibration, model, options, tolerance, mode, _profile(machine),
-                        max_correction, force, regions, reporter)
+                        max_correction, force, regions, reporter, keep_unplannable=keep_unplannable)
     if diff or check_only:
         changed = [name for name in inputs if _review(pipeline, name, diff)]
         reporter.close()

@@ -119,6 +119,16 @@ class SafetyError(PostprocError):
     exit_code = EXIT_REFUSED
 
 
+class UnplannableBlock(SafetyError):
+    """A block no sequence of blocks can replace within the tolerance; ``limit`` names what
+    stops it (output resolution, the arc radius check, the minimum block time, the tolerance)."""
+
+    def __init__(self, message: str, location: Location | None = None, limit: str = "", cause: str = ""):
+        super().__init__(message, location)
+        self.limit = limit
+        self.cause = cause or message  #: the message without its remedies
+
+
 class PluginError(PostprocError):
     """A compensator plugin failed or returned something the core cannot use."""
 

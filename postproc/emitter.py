@@ -2,8 +2,8 @@
 
 A replaced block becomes one or more blocks that look as if the programmer had written
 them: the same letter case, the same spacing between words, the same decimal style
-(``X114.3`` or ``X114.300``, ``X.5`` or ``X0.5``), ``;`` at the end if the block had one,
-and its own line ending. Numbers always carry a decimal point, so that no value is ever
+(``X114.3`` or ``X114.300``, ``X.5`` or ``X0.5``), ``;`` at the end if the block had one
+(the first block keeps what followed it: ``; (COOLANT OFF);``), and its own line ending. Numbers always carry a decimal point, so that no value is ever
 read in least input increments. The replaced block's label, feed, spindle, M words, other
 G codes and comments stay with its first replacement block (a label that ends a cycle
 contour goes on the last: the cycle looks for it there).
@@ -135,6 +135,8 @@ class Writer:
         """The text lines (with line endings) that replace ``block``, and the motion mode after them."""
         style = Style.of(block)
         eob = ";" if style.eob else ""
+        eob_col = block.detail.eob_col if block.fields is None else None
+        tail = eob if eob_col is None else block.text[eob_col:]  # "; (COOLANT OFF);" as it was written
         lines = []
         mode = mode_before
         for index, cut in enumerate(cuts):
@@ -148,7 +150,8 @@ class Writer:
                 parts.insert(0, _label(block))
             mode = wanted
             last = index == len(cuts) - 1
-            lines.append(style.separator.join(parts) + eob + (block.eol if last else (block.eol or "\n")))
+            end = tail if index == 0 else eob
+            lines.append(style.separator.join(parts) + end + (block.eol if last else (block.eol or "\n")))
         return lines, mode
 
     def _first_words(self, block: Block, style: Style, wanted: int, mode, cut: Cut, label_last: bool) -> list[str]:
@@ -179,7 +182,8 @@ class Writer:
             if wanted != mode and not motion_written:
                 parts.append(self.code(wanted, style))
             parts += self.geometry_words(cut, style)
-        parts += [comment.text for comment in block.comments]
+        eob_col = block.detail.eob_col
+        parts += [comment.text for comment in block.comments if eob_col is None or comment.col < eob_col]
         return parts
 
     def _first_canonical_words(self, block: Block, style: Style, wanted: int, mode, cut: Cut,

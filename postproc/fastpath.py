@@ -1,7 +1,8 @@
 """The fast path: ordinary blocks read by one compiled regular expression.
 
 An ordinary block is an optional sequence number, address words whose values are plain
-numbers, at most one simple comment and an optional ``;``. Such a block is about ninety
+numbers, at most one simple comment and an optional ``;`` (which simple comments and more
+``;`` may follow). Such a block is about ninety
 per cent of any real program; reading it with a regular expression instead of the LALR
 parser is what lets postproc run near the speed of a bare tokenizer. Anything else
 (macros, headers, block delete, nested comments, spaces inside numbers, mistakes) goes to
@@ -41,9 +42,10 @@ _ORDINARY = re.compile(
     r"(?:(?P<n>[Nn])[ \t]*(?P<label>\d+)[ \t]*)?"
     r"(?P<words>(?:[A-MP-Za-mp-z][ \t]*[+-]?(?:\d+\.?\d*|\.\d+)[ \t]*)*)"
     r"(?:(?P<comment>\([^()\r\n]*\))[ \t]*)?"
-    r"(?:(?P<eob>;)[ \t]*)?",
+    r"(?:(?P<eob>;)[ \t]*(?P<tail>(?:(?:\([^()\r\n]*\)|;)[ \t]*)*))?",
     re.ASCII,  # a control reads only ASCII digits
 )
+_TAIL_COMMENT = re.compile(r"\([^()\r\n]*\)")
 _WORD = re.compile(r"([A-Z])[ \t]*([+-]?(?:\d+\.?\d*|\.\d+))", re.ASCII)
 _WORD_SPELLING = re.compile(r"([A-Za-z])[ \t]*([+-]?(?:\d+\.?\d*|\.\d+))", re.ASCII)
 _fullmatch = _ORDINARY.fullmatch
@@ -52,7 +54,8 @@ _findall = _WORD.findall
 
 
 _TAPE = re.compile(r"[ \t]*%[ \t]*")
-_HEADER = re.compile(r"[ \t]*[Oo][ \t]*\d+[ \t]*(?:(?P<comment>\([^()\r\n]*\))[ \t]*)?(?:(?P<eob>;)[ \t]*)?", re.ASCII)
+_HEADER = re.compile(r"[ \t]*[Oo][ \t]*\d+[ \t]*(?:(?P<comment>\([^()\r\n]*\))[ \t]*)?"
+                     r"(?:(?P<eob>;)[ \t]*(?P<tail>(?:(?:\([^()\r\n]*\)|;)[ \t]*)*))?", re.ASCII)
 
 
 def read_ordinary(text: str, line: int, eol: str) -> Block | None:
@@ -87,10 +90,18 @@ def detail_of_ordinary(text: str) -> Detail:
     words = tuple(
         Word(m.group(1).upper(), m.group(0), m.start(), m.group(2)) for m in _WORD_SPELLING.finditer(text, start, end)
     )
-    comments = (Comment(match.group("comment"), match.start("comment")),) if match.group("comment") else ()
     label_col = match.start("n") if match.group("n") is not None else None
     eob_col = match.start("eob") if match.group("eob") else None
-    return Detail(words, comments, label_col, eob_col)
+    return Detail(words, _comments(match, text), label_col, eob_col)
+
+
+def _comments(match: re.Match, text: str) -> tuple[Comment, ...]:
+    """The comment before the ``;`` and those after it."""
+    comments = (Comment(match.group("comment"), match.start("comment")),) if match.group("comment") else ()
+    if match.group("tail"):
+        start, end = match.span("tail")
+        comments += tuple(Comment(found.group(0), found.start()) for found in _TAIL_COMMENT.finditer(text, start, end))
+    return comments
 
 
 def _program_start(text: str, line: int, eol: str) -> Block | None:
@@ -100,7 +111,5 @@ def _program_start(text: str, line: int, eol: str) -> Block | None:
     match = _HEADER.fullmatch(text)
     if match is None:
         return None
-    comment = match.group("comment")
-    comments = (Comment(comment, match.start("comment")),) if comment else ()
     eob = match.start("eob") if match.group("eob") else None
-    return Block(line, text, eol, HEADER, None, None, (), None, Detail((), comments, None, eob))
+    return Block(line, text, eol, HEADER, None, None, (), None, Detail((), _comments(match, text), None, eob))

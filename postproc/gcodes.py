@@ -4,6 +4,12 @@ Codes are keyed as ten times their number (G01 -> 10, G07.1 -> 71, G112 -> 1120)
 the decimal codes fit. A code that is not in the table is unknown to the interpreter: the
 block passes through untouched and the position is unknown afterwards, because a modal
 code nobody understands may change what every following block means.
+
+The table follows the G code list of the FANUC Series 0i-TF/16i/18i-T manuals, system by
+system: threading is G32 in system A and G33 in systems B and C (G32 there is no code at
+all, and the control alarms, PS0010). A mode whose moves cannot be modelled here (polar
+or cylindrical interpolation, mirror image, polygon turning) is UNMODELLED: the blocks up
+to its cancel code pass through uninterpreted.
 """
 
 from __future__ import annotations
@@ -13,10 +19,13 @@ MOTION = "motion"  #: group 01: the value is the motion mode
 ONE_SHOT = "one-shot"  #: group 00 codes that use the block's words in their own way
 MODAL = "modal"  #: a modal setting the interpreter tracks (the value says which)
 HARMLESS = "harmless"  #: no effect on the programmed path
-UNSUPPORTED = "unsupported"  #: known, but its path cannot be modelled here
+UNMODELLED = "unmodelled"  #: starts a mode whose moves cannot be modelled (the value names it)
+CANCEL = "cancel"  #: ends the UNMODELLED mode its value names
 
-# Motion modes (values of MOTION entries).
+# Motion modes (values of MOTION entries): the key of the code in system A.
 G00, G01, G02, G03, G32 = 0, 10, 20, 30, 320
+VARIABLE_LEAD, CIRCULAR_THREAD = 340, 350  #: G34; G35 threading along an arc (clockwise)
+THREADING = frozenset((G32, VARIABLE_LEAD, CIRCULAR_THREAD))
 TURN_CYCLE, THREAD_CYCLE, FACE_CYCLE = "turn-cycle", "thread-cycle", "face-cycle"
 
 # One-shot meanings.
@@ -26,6 +35,8 @@ REF_CHECK = "reference-check"
 HOME = "reference-return"
 HOME2 = "second-reference-return"
 SKIP = "skip"
+CORNER_ARC = "corner-circular-interpolation"  #: G39: an arc on the offset path only; I, K give a direction
+PRESET = "workpiece-coordinate-preset"  #: G50.3 (A) / G92.1 (B, C): the position in new coordinates
 COORDINATE = "coordinate-setting"  #: G50 (A) / G92 (B, C)
 LOCAL = "local-coordinates"
 MACHINE = "machine-coordinates"
@@ -53,6 +64,12 @@ DRILL = "drill"  #: G83-G89 drilling cycles with live tools
 MODAL_MACRO, MODAL_MACRO_CANCEL = "modal-macro", "modal-macro-cancel"
 CSS_ON, CSS_OFF = "constant-surface-speed", "constant-surface-speed-cancel"
 
+CYLINDRICAL = "cylindrical interpolation"
+POLAR = "polar coordinate interpolation"
+TURRET_MIRROR = "mirror image for double turrets or balance cutting"
+MIRROR = "programmable mirror image"
+POLYGON = "polygon turning"
+
 _COMMON: dict[int, tuple[str, object]] = {
     0: (MOTION, G00),
     10: (MOTION, G01),
@@ -61,13 +78,15 @@ _COMMON: dict[int, tuple[str, object]] = {
     40: (ONE_SHOT, DWELL),
     50: (HARMLESS, "high-speed-cycle"),
     51: (HARMLESS, "ai-contour"),  # G05.1
-    71: (UNSUPPORTED, "cylindrical interpolation"),  # G07.1
+    54: (HARMLESS, "hrv3"),  # G05.4 HRV3 on/off
+    71: (UNMODELLED, CYLINDRICAL),  # G07.1 (G07.1 C0 cancels it)
     80: (HARMLESS, "look-ahead"),  # G08
     90: (HARMLESS, "exact-stop"),  # G09
     100: (ONE_SHOT, DATA),
+    106: (ONE_SHOT, DATA),  # G10.6 tool retract and recover: the retract amount
     110: (HARMLESS, "data-input-cancel"),
-    121: (UNSUPPORTED, "polar coordinate interpolation"),  # G12.1
-    131: (HARMLESS, "polar-interpolation-cancel"),  # G13.1
+    121: (UNMODELLED, POLAR),  # G12.1
+    131: (CANCEL, POLAR),  # G13.1
     170: (MODAL, PLANE_XY),
     180: (MODAL, PLANE_ZX),
     190: (MODAL, PLANE_YZ),
@@ -77,15 +96,28 @@ _COMMON: dict[int, tuple[str, object]] = {
     260: (ONE_SHOT, DATA),  # spindle speed fluctuation detection on: P Q R are data
     270: (ONE_SHOT, REF_CHECK),
     280: (ONE_SHOT, HOME),
+    282: (ONE_SHOT, HOME),  # G28.2 reference position return without the in-position check
     300: (ONE_SHOT, HOME2),
+    301: (ONE_SHOT, HOME2),  # G30.1 floating reference position return
     310: (ONE_SHOT, SKIP),
-    320: (MOTION, G32),
-    340: (MOTION, G32),  # variable lead threading
+    311: (ONE_SHOT, SKIP),  # G31.1-G31.3 multi-step skip
+    312: (ONE_SHOT, SKIP),
+    313: (ONE_SHOT, SKIP),
+    318: (ONE_SHOT, SKIP),  # G31.8 EGB skip
+    340: (MOTION, VARIABLE_LEAD),
+    350: (MOTION, CIRCULAR_THREAD),  # G35; G36 is circular threading only by parameter 3405#3
     360: (ONE_SHOT, AUTO_OFFSET),
     370: (ONE_SHOT, AUTO_OFFSET),
+    371: (ONE_SHOT, AUTO_OFFSET),  # G37.1, G37.2: automatic tool offset when G36 threads (parameter 3405#3)
+    372: (ONE_SHOT, AUTO_OFFSET),
+    390: (ONE_SHOT, CORNER_ARC),
     400: (MODAL, COMP_OFF),
     410: (MODAL, COMP_LEFT),
     420: (MODAL, COMP_RIGHT),
+    501: (CANCEL, MIRROR),  # G50.1
+    502: (CANCEL, POLYGON),  # G50.2
+    511: (UNMODELLED, MIRROR),  # G51.1
+    512: (UNMODELLED, POLYGON),  # G51.2
     520: (ONE_SHOT, LOCAL),
     530: (ONE_SHOT, MACHINE),
     540: (MODAL, WORK),
@@ -101,20 +133,36 @@ _COMMON: dict[int, tuple[str, object]] = {
     640: (HARMLESS, "cutting-mode"),
     650: (ONE_SHOT, MACRO_CALL),
     660: (MODAL, MODAL_MACRO),
+    661: (MODAL, MODAL_MACRO),  # G66.1: every following block is a macro call
     670: (MODAL, MODAL_MACRO_CANCEL),
-    680: (UNSUPPORTED, "mirror image for double turret"),
-    690: (HARMLESS, "mirror-image-cancel"),
+    680: (UNMODELLED, TURRET_MIRROR),
+    690: (CANCEL, TURRET_MIRROR),
     800: (MODAL, DRILL_CANCEL),
+    804: (HARMLESS, "egb-cancel"),  # G80.4 electronic gear box: synchronisation off (a rotary axis only)
+    810: (MODAL, DRILL),  # G81 spot drilling, G82 counter boring (FS10/11-T format)
+    814: (HARMLESS, "egb-start"),  # G81.4
+    820: (MODAL, DRILL),
     830: (MODAL, DRILL),
+    831: (MODAL, DRILL),  # G83.1 high-speed peck drilling (FS10/11-T format)
     840: (MODAL, DRILL),
+    842: (MODAL, DRILL),  # G84.2 rigid tapping (FS15 format)
+    843: (MODAL, DRILL),  # G84.3 reverse rigid tapping (FS15 format)
     850: (MODAL, DRILL),
     870: (MODAL, DRILL),
     880: (MODAL, DRILL),
     890: (MODAL, DRILL),
+    911: (ONE_SHOT, DATA),  # G91.1 checking the maximum incremental amount: the amounts
     960: (MODAL, CSS_ON),
+    961: (ONE_SHOT, DATA),  # G96.1-G96.4 spindle indexing and SV speed control
+    962: (ONE_SHOT, DATA),
+    963: (ONE_SHOT, DATA),
+    964: (ONE_SHOT, DATA),
     970: (MODAL, CSS_OFF),
-    1120: (UNSUPPORTED, "polar coordinate interpolation"),
-    1130: (HARMLESS, "polar-interpolation-cancel"),
+    1070: (UNMODELLED, CYLINDRICAL),  # G107 = G07.1
+    1120: (UNMODELLED, POLAR),  # G112 = G12.1
+    1130: (CANCEL, POLAR),  # G113 = G13.1
+    2500: (CANCEL, POLYGON),  # G250 = G50.2
+    2510: (UNMODELLED, POLYGON),  # G251 = G51.2
 }
 
 _CYCLES_AB = {
@@ -133,7 +181,9 @@ SYSTEMS: dict[str, dict[int, tuple[str, object]]] = {
         **_CYCLES_AB,
         200: (MODAL, INCH),
         210: (MODAL, METRIC),
+        320: (MOTION, G32),
         500: (ONE_SHOT, COORDINATE),
+        503: (ONE_SHOT, PRESET),
         900: (MOTION, TURN_CYCLE),
         920: (MOTION, THREAD_CYCLE),
         940: (MOTION, FACE_CYCLE),
@@ -145,12 +195,14 @@ SYSTEMS: dict[str, dict[int, tuple[str, object]]] = {
         **_CYCLES_AB,
         200: (MODAL, INCH),
         210: (MODAL, METRIC),
+        330: (MOTION, G32),
         770: (MOTION, TURN_CYCLE),
         780: (MOTION, THREAD_CYCLE),
         790: (MOTION, FACE_CYCLE),
         900: (MODAL, ABSOLUTE),
         910: (MODAL, INCREMENTAL),
         920: (ONE_SHOT, COORDINATE),
+        921: (ONE_SHOT, PRESET),
         940: (MODAL, PER_MINUTE),
         950: (MODAL, PER_REV),
         980: (HARMLESS, "drilling-initial-level"),
@@ -161,6 +213,7 @@ SYSTEMS: dict[str, dict[int, tuple[str, object]]] = {
         200: (MOTION, TURN_CYCLE),
         210: (MOTION, THREAD_CYCLE),
         240: (MOTION, FACE_CYCLE),
+        330: (MOTION, G32),
         700: (MODAL, INCH),
         710: (MODAL, METRIC),
         720: (ONE_SHOT, FINISH),
@@ -173,6 +226,7 @@ SYSTEMS: dict[str, dict[int, tuple[str, object]]] = {
         900: (MODAL, ABSOLUTE),
         910: (MODAL, INCREMENTAL),
         920: (ONE_SHOT, COORDINATE),
+        921: (ONE_SHOT, PRESET),
         940: (MODAL, PER_MINUTE),
         950: (MODAL, PER_REV),
         980: (HARMLESS, "drilling-initial-level"),

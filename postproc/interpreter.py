@@ -13,7 +13,10 @@ sequence: the contour blocks are interpreted as a contour (role ``contour``) fro
 cycle's start point and the program resumes after them at that start point. G70 runs
 the contour again as the finishing path (role ``replay``), then returns to its start
 point. Single-pass cycles (G90/G92/G94 in system A) and G74/G75/G76 are one row each.
-Threading (G32, G76, G92) is marked so that no compensator touches it.
+Threading (G32 in system A, G33 in B and C, G34, G35, G76, G92) is marked so that no
+compensator touches it; its end point is known. A mode that cannot be modelled (polar or
+cylindrical interpolation, mirror image, polygon turning) lets the blocks up to its cancel
+code pass through uninterpreted.
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ from typing import TYPE_CHECKING, Iterable, Iterator
 from . import gcodes as G
 from .blocks import BLOCK, HEADER, Block
 from .corners import CornerError, corner_moves
-from .diagnostics import InterpretationError, Location, Reporter
+from .diagnostics import InterpretationError, Location, Reporter, SafetyError
 from .fastpath import canonical_block
 from .motion import ARC, CONTOUR, CYCLE, LINE, RAPID, REPLAY, RUN, THREAD, Modal, Move, Step
 from .profile import DEFAULT, MachineProfile
@@ -56,7 +59,12 @@ _MACRO_CALLS = frozenset(("65", "065", "66", "066"))
 #: Addresses whose plain numbers are lengths: without a decimal point they count least
 #: input increments (unless calculator-type input is set).
 _LENGTH_ADDRESSES = frozenset("XZUWIKR") | {",C", ",R"}
-_MOTION_KIND = {G.G00: RAPID, G.G01: LINE, G.G02: ARC, G.G03: ARC, G.G32: THREAD}
+#: One-shot codes whose length words are no position of the tool (see _note_literals).
+_WORDS_ARE_DATA = frozenset((G.DWELL, G.DATA, G.MACRO_CALL, G.CORNER_ARC, G.ROUGH_TURN, G.ROUGH_FACE, G.PATTERN,
+                             G.FINISH))
+_MOTION_KIND = {G.G00: RAPID, G.G01: LINE, G.G02: ARC, G.G03: ARC, G.G32: THREAD, G.VARIABLE_LEAD: THREAD,
+                G.CIRCULAR_THREAD: THREAD}
+_UNMODELLED_REGION = -1  #: _skip_until while a mode that cannot be modelled is in force, up to its cancel code
 _CYCLE_KIND = {G.TURN_CYCLE: CYCLE, G.FACE_CYCLE: CYCLE, G.THREAD_CYCLE: THREAD}
 
 
@@ -79,6 +87,7 @@ class _Words:
     m: list[int] = field(default_factory=list)
     values: dict[str, float] = field(default_factory=dict)
     unknown: dict[str, str] = field(default_factory=dict)  #: letter -> why its value is unknown
+    literals: list[tuple[str, bool]] = field(default_factory=list)  #: length words written as numbers: (letter, point)
 
 
 @dataclass
@@ -114,12 +123,14 @@ class Interpreter:
         labels=None,
         reread=None,
         fast: bool = True,
+        refuse_ambiguous_units: bool = False,
     ):
         self.profile = profile
         self.reporter = reporter if reporter is not None else Reporter()
         self.file = file
         self._labels = labels  # the program's LabelIndex, or a callable that scans for it on first use
         self._fast = fast  # ordinary blocks take the fast path (tests compare it with the general one)
+        self._refuse_units = refuse_ambiguous_units  # a program that mixes decimal points with plain numbers
         self._memo: dict[tuple, tuple[Modal, Modal]] = {}
         self._interned: dict[Modal, Modal] = {}
         self._jumps: bool | None = None  # whether any label may be a jump target
@@ -133,9 +144,13 @@ class Interpreter:
         self.contours: dict[tuple[int, int], _Contour] = {}
         self._capture: _Capture | None = None
         self._expect: tuple[_Contour, Modal, tuple] | None = None
-        self._skip_until: int | None = None  # label ending a region that cannot be interpreted
+        self._skip_until: int | None = None  # label ending a region that cannot be interpreted (or _UNMODELLED_REGION)
         self._drilling = False
         self._modal_macro = False
+        self._unmodelled: str | None = None  # the mode in force whose moves cannot be modelled (gcodes.UNMODELLED)
+        self._pointed = False  # a length word with a decimal point was read
+        self._plain: tuple[Block, str, bool] | None = None  # the first length word without one (and not 0), inch
+        self._units_said = False
         self._pending: list[Step] = []  # steps held while a corner waits for its next move
         self._corner: tuple[Step, int, str, float] | None = None  # (step, move index, corner word, size)
         self._work: int | None = None  # G54..G59 in force; None until the program names one
@@ -260,12 +275,16 @@ class Interpreter:
             if block.kind == HEADER:
                 self._enter_program(block)
             return Step(block, (), self.modal, interpreted=block.kind != BLOCK)
-        if self._skip_until is not None:
-            step = Step(block, (), self.modal, interpreted=False)
-            if block.label == self._skip_until:
-                self._skip_until = None
-                self.x = self.z = None
-            return step
+        skip = self._skip_until
+        if skip is not None:
+            if skip != _UNMODELLED_REGION:
+                step = Step(block, (), self.modal, interpreted=False)
+                if block.label == skip:
+                    self._skip_until = None
+                    self.x = self.z = None
+                return step
+            if not self._leaves_unmodelled(block):
+                return Step(block, (), self.modal, interpreted=False)
         if self._expect is not None and (block.codes or block.statement is not None or block.label is not None):
             self._start_expected_contour(block)
         in_contour = self._capture is not None
@@ -302,7 +321,7 @@ class Interpreter:
     def _enter_program(self, block: Block) -> None:
         """An O number starts a program; a local subprogram called from several places is
         run with as many start points and states: its blocks are not compensated."""
-        match = re.match(r"\s*[Oo:]\s*([0-9]+)", block.text)
+        match = re.match(r"[\s%]*[Oo:]\s*([0-9]+)", block.text)  # "%O1200" where the control reads on after %
         self._shared = False
         if match is None:
             return
@@ -314,6 +333,76 @@ class Interpreter:
                 f"O{number} is called from {calls} places: its blocks are not compensated",
                 self._location(block, 0),
             )
+
+    def _leaves_unmodelled(self, block: Block) -> bool:
+        """Whether the block ends the unmodelled mode in force (its cancel code, G07.1 with its
+        axis at 0, or the end of the program); the position is then unknown."""
+        ends = False
+        for letter, value in block.codes:
+            if type(value) is not str:
+                continue
+            if letter == "M" and value.isdigit() and int(value) in (2, 30):
+                ends = True
+            elif letter == "G":
+                kind, meaning = self.table.get(G.code_key(float(value)), (None, None))
+                if meaning == self._unmodelled and (kind == G.CANCEL or (
+                        kind == G.UNMODELLED and any(float(v) == 0.0 for l, v in block.codes
+                                                     if l != "G" and type(v) is str))):
+                    ends = True
+        if ends:
+            self._unmodelled = self._skip_until = None
+            self.x = self.z = None
+        return ends
+
+    @staticmethod
+    def _cancels_cylindrical(words: _Words) -> bool:
+        """G07.1 C0 (the rotary axis given as 0) ends cylindrical interpolation."""
+        return any(value == 0.0 for letter, value in words.values.items() if letter not in "FSTMPQ")
+
+    def _note_literals(self, block: Block, literals: list[tuple[str, bool]], one_shot: str | None) -> None:
+        """The general path's share of :meth:`_note_units`: the axis words of a block that moves
+        or places the tool, and I, K, R, ,C, ,R of a motion block (not a cycle's parameters,
+        a dwell, data or a macro call's arguments)."""
+        if one_shot in _WORDS_ARE_DATA:
+            return
+        plain, pointed = None, False
+        for letter, point in literals:
+            if one_shot is not None and letter not in "XZUW":
+                continue
+            if point:
+                pointed = True
+            elif plain is None:
+                plain = letter
+        if plain is not None or (pointed and not self._pointed):
+            self._note_units(block, plain, pointed)
+
+    def _note_units(self, block: Block | tuple, plain: str | None, pointed: bool) -> None:
+        """Calculator-type input (FANUC parameter 3401 bit 0, DPI) reads X118 as 118 mm; the
+        default reads it in least input increments, 0.118 mm (IS-B). A program whose axis words
+        mix decimal points with plain numbers was written for one of the two, and nothing in
+        it says which: unless the machine profile states ``calculator_input``, the first plain
+        word is a warning, or a refusal where blocks are to be rewritten."""
+        if pointed:
+            self._pointed = True
+        if plain is not None and self._plain is None:
+            self._plain = (block, plain, self.modal.inch)
+        if self._plain is None or not self._pointed or self._units_said or self.profile.calculator_input is not None:
+            return
+        self._units_said = True
+        block, letter, inch = self._plain
+        word = block.word(letter)
+        increment = self.profile.increment(inch)
+        unit = "in" if inch else "mm"
+        as_written = float(word.value)
+        message = (f"{word.text} has no decimal point while other axis words have one: read in least input "
+                   f"increments ({self.profile.input_increment}) it is {as_written * increment:g} {unit}; on a control "
+                   f"with calculator-type input (parameter 3401 bit 0, DPI) it is {as_written:g} {unit}")
+        where = self._location(block, word.col)
+        if self._refuse_units:
+            raise SafetyError(f"{message}: state which in the machine profile, calculator_input = true or false",
+                              where)
+        self.reporter.warn(f"{message}; read as the FANUC default, in increments (calculator_input = true in the "
+                           "machine profile for the other)", where)
 
     def _uninterpretable(self, block: Block, exc: _Uninterpretable) -> Step:
         col = exc.col if exc.col is not None else self._first_col(block)
@@ -383,6 +472,7 @@ class Interpreter:
         inch = modal.inch
         values: dict[str, float] = {}
         motion_given = False
+        plain = None  # the first length word without a decimal point (and not 0)
         for letter, value in block.codes:
             if letter == "G":
                 mode = _FAST_MOTION.get(value)
@@ -402,8 +492,11 @@ class Interpreter:
                 return None  # the general path says what the control would
             number = float(value)
             if letter in _FAST_LENGTHS:
-                if "." not in value and not profile.calculator_input:
-                    number *= profile.increment(inch)
+                if "." not in value:
+                    if plain is None and number != 0.0:
+                        plain = letter
+                    if not profile.calculator_input:
+                        number *= profile.increment(inch)
                 if inch:
                     number *= INCH
             values[letter] = number
@@ -426,6 +519,10 @@ class Interpreter:
         elif "I" in values or "K" in values or "R" in values:
             return None
         # commit the modal changes
+        if plain is not None:  # seldom: is any other length word of the block written with its point?
+            self._note_units(block, plain, any("." in v for l, v in block.codes if l in _FAST_LENGTHS))
+        elif not self._pointed and (has_x or has_z):  # every length word of the block has its point
+            self._note_units(block, None, True)
         if feed != modal.feed:
             modal = self._with(modal, "feed", feed)
         if "S" in values and values["S"] != modal.spindle:
@@ -483,6 +580,8 @@ class Interpreter:
         self.modal = modal
         if x is None and z is None:
             return self._shared_step(block, (), modal) if keep else 0
+        if not self._pointed:  # a canonical length always has its decimal point
+            self._note_units(block, None, True)
         scale = INCH if inch else 1.0
         x0, z0 = self.x, self.z
         if x is None:
@@ -632,6 +731,8 @@ class Interpreter:
                 words.m.append(int(number))
                 continue
             if letter in _LENGTH_ADDRESSES:
+                if type(value) is str and not argument and (point or number != 0.0):
+                    words.literals.append((letter, point))
                 if not point and not calculator:
                     number *= increment
                 number *= scale
@@ -698,14 +799,22 @@ class Interpreter:
                 one_shot = (key, meaning)
             elif kind == G.MODAL:
                 modal = self._modal_setting(modal, meaning, key)
-            elif kind == G.UNSUPPORTED:
-                raise _Uninterpretable(f"{G.code_name(key)} ({meaning}) is not modelled", self._col(block, "G"))
+            elif kind == G.CANCEL and one_shot is None:
+                one_shot = (key, G.DATA)  # "G50.1 X0.": the words name the mode's axes, they are no move
+            elif kind == G.UNMODELLED and not (meaning == G.CYLINDRICAL and self._cancels_cylindrical(words)):
+                self._unmodelled, self._skip_until = meaning, _UNMODELLED_REGION
+                self.modal = replace(self.modal, motion=None)
+                raise _Uninterpretable(f"{G.code_name(key)} ({meaning}) is not modelled: the blocks up to its cancel "
+                                       "code pass through uninterpreted, and positions are unknown until an absolute "
+                                       "move after it", self._col(block, "G"))
         modal = self._tool_and_feed(modal, block, words)
         if motion != modal.motion:
             modal = replace(modal, motion=motion)
         if modal != self.modal:
             self.modal = modal
         self._check_addresses(block, words, one_shot)
+        if words.literals:
+            self._note_literals(block, words.literals, None if one_shot is None else one_shot[1])
 
         if 98 in words.m or 99 in words.m or 30 in words.m or 2 in words.m:
             return self._program_flow(block, words)
@@ -953,7 +1062,7 @@ class Interpreter:
 
     def _one_shot(self, block: Block, words: _Words, meaning: str) -> Step:
         values = words.values
-        if meaning in (G.DWELL, G.DATA):
+        if meaning in (G.DWELL, G.DATA, G.CORNER_ARC):  # G39's I and K give a direction, not a position
             return Step(block, (), self.modal)
         if meaning == G.COORDINATE:
             if "S" in values:
@@ -990,7 +1099,7 @@ class Interpreter:
             move = self._move(LINE, block, None if x1 != self.x else x1, None if z1 != self.z else z1, exact=False)
             self.x, self.z = move.x1, move.z1
             return Step(block, (move,), self.modal)
-        if meaning == G.LOCAL:
+        if meaning in (G.LOCAL, G.PRESET):
             self.x = self.z = None
             return Step(block, (), self.modal)
         if meaning == G.MACRO_CALL:

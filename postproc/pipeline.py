@@ -169,9 +169,10 @@ class Pipeline:
             z_limits=self.profile.z_limits,
             default_tolerance=self.profile.default_tolerance,
             max_correction=self.max_correction,
+            keep_unplannable=self.request.keep_unplannable,
         )
         opening, anchor = self._prologue(source)
-        steps = interpret_source(source, self.profile, self.reporter)
+        steps = interpret_source(source, self.profile, self.reporter, rewriting=True)
         region = Region(self.request.regions)
         rewriter = Rewriter(steps, self._corrector(), settings, self.reporter, source.name, selects=region)
         lead: list[str] = []  # the tape mark and program number go before the provenance block
@@ -267,6 +268,7 @@ class Pipeline:
         lines.append(f"LARGEST CORRECTION {rewriter.largest:.4f} MM")
         lines.append(f"BLOCKS REPLACED {rewriter.replaced} BY {rewriter.emitted}")
         lines += added
+        lines += _unplannable_lines(rewriter.unplannable)
         return "".join(f"({_safe(line)}){eol}" for line in lines)
 
     def report(self) -> list[dict[str, Any]]:
@@ -343,12 +345,20 @@ def _units_and_plane(steps, system: str) -> tuple[Step | None, Step | None]:
     return units, stop
 
 
+def _unplannable_lines(unplannable: list[tuple[int, str]], shown: int = 10) -> list[str]:
+    """The provenance of ``--keep-unplannable``: each block left uncompensated, by line."""
+    lines = [f"UNCOMPENSATED LINE {line}: {limit}" for line, limit in unplannable[:shown]]
+    if len(unplannable) > shown:
+        lines.append(f"UNCOMPENSATED {len(unplannable) - shown} MORE BLOCKS")
+    return lines
+
+
 def _safe(text: str) -> str:
     return _SAFE.sub("_", text.upper())[:60]
 
 
 def _is_program_start(text: str) -> bool:
-    stripped = text.strip()
+    stripped = text.strip().lstrip("\ufeff")  # a byte order mark before the tape mark
     return stripped == "" or stripped.startswith("%") or stripped[:1] in ("O", "o", "<", ":")
 
 

@@ -31,7 +31,11 @@ class MachineProfile:
     gcode_system: str = "A"  #: FANUC lathe G-code system A, B or C
     diameter_x: bool = True  #: X (and U) are diameters
     input_increment: str = "IS-B"  #: least input increment system
-    calculator_input: bool = False  #: a number without a decimal point is in mm (parameter DPI)
+    #: A length without a decimal point is in mm or inches (FANUC parameter 3401 bit 0, DPI), not
+    #: in least input increments. None: not stated; read as the FANUC default (increments), and
+    #: a program that mixes both spellings is refused by compensate.
+    calculator_input: bool | None = None
+    label_skip: bool = True  #: after the opening %, the control skips up to the first end of block
     axes: str = "XZ"  #: the axes this lathe has
     arc_radius_tolerance: float = 0.01  #: the control's arc check: start and end radii may differ by this
     max_arc_radius: float = 5000.0  #: an arc above this radius is emitted as lines
@@ -114,6 +118,8 @@ def _checked(name: str, value: Any, origin: str) -> Any:
     default = getattr(DEFAULT, name)
     if name in ("x_limits", "z_limits"):
         default = (0.0, 0.0)
+    if name == "calculator_input":
+        default = False
     if isinstance(default, tuple):
         if not (isinstance(value, list) and len(value) == 2 and all(_is_number(v) for v in value)):
             raise OptionError(f"{name} must be a list of two numbers", Location(origin))

@@ -12,9 +12,12 @@ from .reader import read_blocks
 from .source import Source
 
 
-def interpret_source(source: Source, profile: MachineProfile = DEFAULT, reporter: Reporter | None = None) -> Iterator[Step]:
-    """The steps of a program, streamed; raises ProgramError on the first mistake."""
-    interpreter, blocks = _prepare(source, profile, reporter)
+def interpret_source(source: Source, profile: MachineProfile = DEFAULT, reporter: Reporter | None = None, *,
+                     rewriting: bool = False) -> Iterator[Step]:
+    """The steps of a program, streamed; raises ProgramError on the first mistake. ``rewriting``:
+    the steps are to be compensated, so what the profile leaves open and the program needs
+    (calculator-type input) is refused rather than warned of."""
+    interpreter, blocks = _prepare(source, profile, reporter, rewriting=rewriting)
     try:
         yield from interpreter.run(blocks)
     except InterpretationError:
@@ -34,18 +37,19 @@ def tally_source(source: Source, profile: MachineProfile = DEFAULT, reporter: Re
 
 
 def _prepare(source: Source, profile: MachineProfile, reporter: Reporter | None,
-             light: bool = False) -> tuple[Interpreter, Iterator]:
+             light: bool = False, rewriting: bool = False) -> tuple[Interpreter, Iterator]:
     reporter = reporter if reporter is not None else Reporter()
 
     def reread(first: int, last: int):
-        for block in read_blocks(source.lines(), source.name):
+        for block in read_blocks(source.lines(), source.name, label_skip=profile.label_skip):
             if block.line > last:
                 return
             if block.line >= first:
                 yield block
 
-    interpreter = Interpreter(profile, reporter, source.name, labels=lambda: source.labels, reread=reread)
-    return interpreter, read_blocks(source.lines(), source.name, reporter, light=light)
+    interpreter = Interpreter(profile, reporter, source.name, labels=lambda: source.labels, reread=reread,
+                              refuse_ambiguous_units=rewriting)
+    return interpreter, read_blocks(source.lines(), source.name, reporter, light=light, label_skip=profile.label_skip)
 
 
 def _syntax_first(blocks: Iterator) -> None:

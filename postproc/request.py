@@ -23,3 +23,4 @@ class Request:
     max_correction: float | None = None
     force: bool = False
     regions: list[str] = field(default_factory=list)
+    keep_unplannable: bool = False  #: leave blocks that cannot be held uncompensated instead of refusing

@@ -32,16 +32,18 @@ import numpy as np
 
 from . import gcodes as G
 from .blocks import Block
-from .diagnostics import Location, PostprocError, Reporter, SafetyError
+from .diagnostics import Location, PostprocError, Reporter, SafetyError, UnplannableBlock
 from .emitter import Style, Writer, with_motion_code
-from .geometry import TAU, Arc, Line, segment_of
+from .geometry import Arc, Line, segment_of
 from .interpreter import Interpreter
 from .motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
 from .reader import read_blocks
-from .resolution import Grid, rounded
-from .segmenter import Cut, Limits, Plan, PlanError, Segmenter, Target, measure_bends, plan, sample_params
+from .resolution import Grid
+from .segmenter import (RADIUS_CHECK, RESOLUTION, TOLERANCE, Cut, Limits, Plan, PlanError, Segmenter, Target,
+                        measure_bends, plan, sample_params)
 
 JOIN = 1e-9  #: nominal points closer than this are the same point
+STEPS = (0.0005, 0.001)  #: the output grid's x and z steps (radius mm) of a metric diameter program
 BATCH = 256  #: steps read ahead so that their pieces are corrected in one call
 
 
@@ -87,77 +89,91 @@ def sample_lines(parts: list[Piece]) -> None:
         first += count
 
 
-def _travel(part: Line | Arc, at: float = 0.5) -> tuple[int, int]:
-    """Which way each axis runs at ``at`` (+1, -1, or 0 when it stands still)."""
-    x, z = part.direction_at(at)
-    return _way(x), _way(z)
+def _travel(dx: float, dz: float, last: tuple[int, int], steps: tuple[float, float]) -> tuple[int, int]:
+    """Which way each axis runs over a piece that moves it by (dx, dz): the sign of that travel,
+    or the way the axis last ran when it travels less than half a step of the output grid
+    (an axis the control does not move keeps its backlash where it was; so does one that
+    only wanders by less, as an arc does about an apex it barely passes)."""
+    x = (dx > 0.0) - (dx < 0.0) if abs(dx) >= steps[0] / 2.0 else last[0]
+    z = (dz > 0.0) - (dz < 0.0) if abs(dz) >= steps[1] / 2.0 else last[1]
+    return x, z
 
 
-def pieces(move: Move, last: tuple[int, int] = (0, 0)) -> list[Piece]:
+def pieces(move: Move, last: tuple[int, int] = (0, 0), steps: tuple[float, float] = STEPS) -> list[Piece]:
     """A move split where an axis reverses, so direction-dependent corrections act per side.
 
-    ``last`` is the direction each axis last travelled in before the move.
+    ``last`` is the direction each axis last travelled in before the move; ``steps`` the
+    output grid's steps in x and z (radius mm). Only reversals the grid can see count
+    (:func:`_turns`).
     """
     segment = segment_of(move)
     if isinstance(segment, Line):
         bounds = [0.0, 1.0]
     else:
-        bounds = [0.0, *segment.reversal_params(), 1.0]
+        bounds = [0.0, *_turns(segment, steps), 1.0]
     result = []
     for a, b in zip(bounds, bounds[1:]):
         if isinstance(segment, Line) or (len(bounds) == 2 and segment.r1 is None):
             part = segment  # the whole move: part(0, 1) would be the same arc
         else:
             part = segment.part(a, b)
-        x, z = _travel(part)
-        last = (x or last[0], z or last[1])
+        (x0, z0), (x1, z1) = part.start, part.end
+        last = _travel(x1 - x0, z1 - z0, last, steps)
         result.append(Piece(move, part, sample_params(part), *last))
     return result
 
 
-def travel_after(move: Move, last: tuple[int, int]) -> tuple[int, int]:
-    """The direction each axis last travelled in, once ``move`` has run.
+def _turns(arc: Arc, steps: tuple[float, float]) -> list[float]:
+    """The parameters where an axis of the arc reverses, as far as the output grid can see.
+
+    A reversal counts when the axis travels at least half a grid step on either side of it
+    (up to the arc's ends or the axis's next reversal) and leaves a piece of at least one
+    step each way. Less is below what the control commands: an R arc whose end lies a hair
+    past an apex (its centre, worked out from R, sits nanometres off the end's axis) turns
+    the axis back by picometres, and a piece that short has no block of its own.
+    """
+    found = arc.reversal_params()
+    if not found:
+        return found
+    length = arc.length
+    shortest = max(steps) / length if length > 0.0 else math.inf
+    theta0, sweep, r = arc.theta0, arc.sweep, arc.r
+    kept: list[float] = []
+    previous = 0.0
+    for index, t in enumerate(found):
+        theta = theta0 + t * sweep
+        axis = 0 if abs(math.sin(theta)) < 0.5 else 1  # x turns where sin(theta) = 0, z where cos(theta) = 0
+        same = [u for u in found if u != t and (abs(math.sin(theta0 + u * sweep)) < 0.5) == (axis == 0)]
+        before = max([u for u in same if u < t], default=0.0)
+        after = min([u for u in same if u > t], default=1.0)
+        value = (math.cos, math.sin)[axis]
+        here = value(theta)
+        travel = min(abs(here - value(theta0 + before * sweep)), abs(value(theta0 + after * sweep) - here)) * r
+        following = found[index + 1] if index + 1 < len(found) else 1.0
+        if travel >= steps[axis] / 2.0 and t - previous >= shortest and following - t >= shortest:
+            kept.append(t)
+            previous = t
+    return kept
+
+
+def travel_after(move: Move, last: tuple[int, int], steps: tuple[float, float] = STEPS) -> tuple[int, int]:
+    """The direction each axis last travelled in, once ``move`` has run: an arc's is that of
+    its last piece (as :func:`pieces` splits it).
 
     Worked out with floats, not the geometry's arrays: it runs for every move of the
     program, compensated or not."""
     if not move.known or move.kind not in (LINE, ARC, RAPID) or not move.exact:
         return (0, 0) if not move.known else last
     if move.xc is None:
-        dx, dz = move.x1 - move.x0, move.z1 - move.z0
-        length = math.hypot(dx, dz)
-        if length == 0.0:
-            return last
-        tx, tz = dx / length, dz / length
-    else:
-        theta0 = math.atan2(move.z0 - move.zc, move.x0 - move.xc)
-        theta1 = math.atan2(move.z1 - move.zc, move.x1 - move.xc)
-        sweep = (theta1 - theta0) % TAU if move.cw else -((theta0 - theta1) % TAU)  # as Arc.through
-        if sweep == 0.0 and (move.x0, move.z0) == (move.x1, move.z1):
-            sweep = TAU if move.cw else -TAU  # a full circle
-        if sweep == 0.0 or (move.x0, move.z0) == (move.xc, move.zc) == (move.x1, move.z1):
-            return last
-        theta = theta0 + sweep
-        sign = 1.0 if sweep >= 0 else -1.0
-        tx, tz = -sign * math.sin(theta), sign * math.cos(theta)
-        if _way(tx) == 0 or _way(tz) == 0:  # the arc ends where an axis stops: it last travelled as just before
-            before = theta - math.copysign(min(1e-6, abs(sweep) / 2.0), sweep)
-            if _way(tx) == 0:
-                tx = -sign * math.sin(before)
-            if _way(tz) == 0:
-                tz = sign * math.cos(before)
-    x, z = _way(tx), _way(tz)
-    return (x or last[0], z or last[1])
-
-
-def _sign(value: float) -> int:
-    return (value > 0.0) - (value < 0.0)
-
-
-def _way(component: float) -> int:
-    """The way a unit tangent's component runs: its sign once rounded to 12 places (so that
-    a line a rounding error off the axis still stands still). Beyond 1e-12 the rounding
-    cannot change the sign, and is skipped."""
-    return _sign(component) if abs(component) > 1e-12 else _sign(rounded(component, 12))
+        return _travel(move.x1 - move.x0, move.z1 - move.z0, last, steps)
+    if (move.x0, move.z0) == (move.xc, move.zc) == (move.x1, move.z1):
+        return last
+    arc = segment_of(move)
+    if arc.sweep == 0.0:
+        return last
+    turns = _turns(arc, steps)
+    (x0, z0) = arc.part(turns[-1], 1.0).start if turns else (move.x0, move.z0)
+    return _travel(move.x1 - x0, move.z1 - z0, last, steps)
 
 
 #: The corrections wanted for a run of pieces, in order: an (n, 2) array or None for each.
@@ -190,6 +206,7 @@ class Entry:
     edits: list[Edit | None] = field(default_factory=list)  #: one per move of the step
     retarget: tuple[tuple[float, float] | None, tuple[float, float] | None] | None = None  #: new (start, end)
     refusal: PostprocError | None = None  #: found while correcting the batch, raised when the step is reached
+    kept: bool = False  #: left as it is (keep_unplannable): its neighbours meet it, it does not move to meet them
 
     @property
     def edited(self) -> bool:
@@ -217,6 +234,7 @@ class Settings:
     nose_radius: float = 0.4
     default_tolerance: Callable[[bool], float] = lambda inch: 0.001
     max_correction: float = math.inf  #: mm; a larger correction is refused
+    keep_unplannable: bool = False  #: leave a block that cannot be held uncompensated, with a warning
 
 
 class Rewriter:
@@ -236,10 +254,12 @@ class Rewriter:
         self.replaced = 0  #: blocks replaced
         self.emitted = 0  #: blocks written for them
         self.worst = 0.0  #: largest measured deviation from a target, mm
+        self.unplannable: list[tuple[int, str]] = []  #: (line, limit) of each block left uncompensated
         self._contour: tuple[list[Cut], list[Cut]] | None = None
         self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
         self._checker: Interpreter | None = None  # reads replacements back (the self-check)
         self._grids: dict[bool, Grid] = {}  # by inch
+        self._grid_steps: dict[bool, tuple[float, float]] = {}  # by inch
         self._limits: dict[tuple[float, bool], Limits] = {}  # by tolerance and inch
 
     # ------------------------------------------------------------------ streaming
@@ -253,6 +273,8 @@ class Rewriter:
                 if entry.refusal is not None:
                     raise entry.refusal
                 if entry.motion:
+                    if entry.edited:
+                        self._plan_edits(entry)
                     if previous is not None:
                         self._join(previous, entry)
                     yield from self._flush(window)
@@ -307,11 +329,12 @@ class Rewriter:
                 continue
             step = entry.step
             entry.edits = [None] * len(step.moves)
+            steps = self._steps(step)
             for index, move in enumerate(step.moves):
                 if self._candidate(step, move):
-                    wanted.append((entry, index, pieces(move, self._last_travel)))
+                    wanted.append((entry, index, pieces(move, self._last_travel, steps)))
                 if move.role in (RUN, CONTOUR, CORNER):
-                    self._last_travel = travel_after(move, self._last_travel)
+                    self._last_travel = travel_after(move, self._last_travel, steps)
         if not wanted:
             return
         every = [piece for _, _, parts in wanted for piece in parts]
@@ -396,7 +419,8 @@ class Rewriter:
         """A block with one plain line or rapid that can be rewritten with other end points."""
         step = entry.step
         return (
-            len(step.moves) == 1
+            not entry.kept
+            and len(step.moves) == 1
             and step.moves[0].kind in (LINE, RAPID)
             and step.moves[0].exact
             and step.moves[0].known
@@ -441,15 +465,7 @@ class Rewriter:
 
     def _explicit(self, entry: Entry) -> None:
         """Write a corner block's geometry out, so the control no longer computes the corner."""
-        edits = []
-        for move in entry.step.moves:
-            if move.kind in (LINE, ARC) and move.known:
-                segment = segment_of(move)
-                t = sample_params(segment)
-                edits.append(Edit(move, [Target(segment, t, np.zeros((len(t), 2)))]))
-            else:
-                edits.append(None)
-        entry.edits = edits
+        entry.edits = [_as_it_is(move) if move.kind in (LINE, ARC) and move.known else None for move in entry.step.moves]
 
     def _connector(self, start, end, step: Step) -> Cut | None:
         a, b = self._snap(step, start), self._snap(step, end)
@@ -467,6 +483,15 @@ class Rewriter:
             grid = self._grids[inch] = Grid(settings.decimals_inch if inch else settings.decimals_mm, inch,
                                             settings.diameter)
         return grid
+
+    def _steps(self, step: Step) -> tuple[float, float]:
+        """The output grid's x and z steps (radius mm) in the step's units."""
+        inch = step.modal.inch
+        steps = self._grid_steps.get(inch)
+        if steps is None:
+            grid = self._grid(step)
+            steps = self._grid_steps[inch] = (grid.x_step, grid.z_step)
+        return steps
 
     def _tolerance(self, step: Step) -> float:
         if self.settings.tolerance is not None:
@@ -558,20 +583,39 @@ class Rewriter:
                     a, b = self._snap(step, (move.x0, move.z0)), self._snap(step, (move.x1, move.z1))
                     add(Cut(a[0], a[1], b[0], b[1], rapid=True))
                     continue
-                segment = segment_of(move)  # written out as it is, for it shares the block with a change
-                t = sample_params(segment)
-                edit = entry.edits[index] = Edit(move, [Target(segment, t, np.zeros((len(t), 2)))])
+                edit = entry.edits[index] = _as_it_is(move)  # written out, for it shares the block with a change
             add(edit.lead_in)
-            for target in edit.targets:
-                planned = self._plan(step, target)
+            if not edit.plans:
+                edit.plans = [self._plan(step, target) for target in edit.targets]
+            for planned in edit.plans:
+                self.worst = max(self.worst, planned.deviation)
                 add(planned.cuts[0])
                 first = len(cuts) - 1
                 for cut in planned.cuts[1:]:
                     add(cut)
-                edit.plans.append(planned)
                 edit.spans.append((first, len(cuts)))
             add(edit.lead_out)
         return cuts
+
+    def _plan_edits(self, entry: Entry) -> None:
+        """Plan the blocks of an edited step before its joins are settled. A move that cannot
+        be held refuses the run; with ``keep_unplannable`` the whole block is left as it is
+        instead (listed as a warning and in :attr:`unplannable`), and its neighbours join its
+        nominal path as they join any block left alone."""
+        step = entry.step
+        try:
+            for index, (move, edit) in enumerate(zip(step.moves, entry.edits)):
+                if edit is None and move.kind != RAPID:  # written out, for it shares the block with a change
+                    edit = entry.edits[index] = _as_it_is(move)
+                if edit is not None:
+                    edit.plans = [self._plan(step, target) for target in edit.targets]
+        except UnplannableBlock as exc:
+            if not self.settings.keep_unplannable:
+                raise
+            entry.edits = [None] * len(step.moves)
+            entry.kept = True
+            self.unplannable.append((step.block.line, exc.limit))
+            self.reporter.warn(f"block left uncompensated (--keep-unplannable): {exc.cause}", exc.location)
 
     def _plan(self, step: Step, target: Target) -> Plan:
         settings = self.settings
@@ -583,11 +627,27 @@ class Rewriter:
         try:
             result = plan(target, limits, settings.mode)
         except PlanError as exc:
-            raise SafetyError(f"block cannot be compensated within tolerance: {exc}", _where(self.file, step)) from None
+            raise self._unplannable(step, exc.limit, str(exc), exc.needed) from None
         if len(result.cuts) > 1:  # one block has no neighbour to merge with
             result = self._keep_long(result, target, limits, self._length_rule(step, result.cuts), step)
-        self.worst = max(self.worst, result.deviation)
         return result
+
+    def _unplannable(self, step: Step, limit: str, cause: str, needed: float | None) -> UnplannableBlock:
+        """The refusal of a block that cannot be held: which limit stops it, where (the word it
+        concerns, with a caret), and what would let it through."""
+        remedies = []
+        if limit in _REMEDIES:
+            remedies.append(_REMEDIES[limit])
+        if needed is not None and 0.0 < needed <= 0.1:
+            remedies.append(f"--tolerance {_rounded_up(needed)} (the nearest plan for this block keeps within "
+                            f"{needed * 1000:.2f} um)")
+        remedies.append("--keep-unplannable to leave such blocks uncompensated")
+        block = step.block
+        word = next((w for w in block.words if w.letter in _WORDS_OF[limit]), None) or next(
+            (w for w in block.words if w.letter in "XZUW"), None)
+        location = Location(self.file, block.line, None if word is None else word.col + 1, block.text)
+        return UnplannableBlock(f"block cannot be compensated: {cause} ({limit}); to go on, give " + ", or ".join(remedies),
+                                location, limit, f"{cause} ({limit})")
 
     def _length_rule(self, step: Step, cuts: list[Cut]):
         """How long each block must be, and why: ``rule(cuts, i) -> (mm, reason)``.
@@ -638,9 +698,10 @@ class Rewriter:
         deviation = segmenter.measure(cuts)
         tolerance = limits.tolerance
         if deviation > 2.0 * tolerance:
-            raise SafetyError(
+            raise self._unplannable(
+                step, INTERFERENCE if reason.startswith("under G4") else BLOCK_TIME,
                 f"blocks shorter than {shortest * 1000:.1f} um ({reason}) are needed to keep within "
-                f"{tolerance * 1000:.2f} um; merging them would leave {deviation * 1000:.2f} um", _where(self.file, step))
+                f"{tolerance * 1000:.2f} um; merging them would leave {deviation * 1000:.2f} um", deviation)
         if deviation > tolerance:
             self.reporter.warn(
                 f"blocks merged to keep them longer than {shortest * 1000:.1f} um ({reason}): "
@@ -729,6 +790,30 @@ class Rewriter:
                     raise SafetyError(
                         f"self-check: the replacement runs {planned.deviation * 1000:.2f} um from the intended path "
                         f"(tolerance {tolerance * 1000:.2f} um)", _where(self.file, step))
+
+
+BLOCK_TIME, INTERFERENCE = "minimum block time", "nose radius interference check"
+_REMEDIES = {
+    RESOLUTION: "more decimals (output_decimals_mm, output_decimals_inch in the machine profile) if the control's "
+                "increment system takes them",
+    RADIUS_CHECK: "the control's own limit as arc_radius_tolerance in the machine profile (FANUC parameter 3410)",
+    BLOCK_TIME: "a smaller min_block_time_s in the machine profile, or a lower feed",
+    INTERFERENCE: "the tool's own nose radius as nose_radius_mm in the machine profile",
+}
+_WORDS_OF = {RESOLUTION: "XZUW", RADIUS_CHECK: "RIK", TOLERANCE: "XZUW", BLOCK_TIME: "F", INTERFERENCE: "XZUW"}
+
+
+def _rounded_up(tolerance: float) -> str:
+    """A tolerance (mm) a little above ``tolerance``, written with two significant digits."""
+    digits = 1 - math.floor(math.log10(tolerance))
+    return f"{math.ceil(tolerance * 1.001 * 10**digits) / 10**digits:g}"
+
+
+def _as_it_is(move: Move) -> Edit:
+    """An edit that writes a move out as it is (it shares its block with a change)."""
+    segment = segment_of(move)
+    t = sample_params(segment)
+    return Edit(move, [Target(segment, t, np.zeros((len(t), 2)))])
 
 
 def _where(file: str, step: Step) -> Location:

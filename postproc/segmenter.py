@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from bisect import bisect_left
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property, lru_cache
 from typing import NamedTuple
 
@@ -647,7 +647,15 @@ class Segmenter:
 
 
 def plan(target: Target, limits: Limits, mode: str = AUTO) -> Plan:
-    """The fewest blocks within tolerance, as ``mode`` allows; raises PlanError if none."""
+    """The fewest blocks within tolerance, as ``mode`` allows; raises PlanError if none,
+    saying which limit stops it."""
+    found = _plan(target, limits, mode)
+    if found is None:
+        raise _unplannable(target, limits, mode)
+    return found
+
+
+def _plan(target: Target, limits: Limits, mode: str) -> Plan | None:
     straight = _straight(target, limits)
     if straight is not None:
         return straight
@@ -668,8 +676,44 @@ def plan(target: Target, limits: Limits, mode: str = AUTO) -> Plan:
         if chords is not None and (mode != ARC_MODE or not candidates):
             candidates.append(chords)
     if not candidates:
-        raise PlanError(f"no plan keeps within {limits.tolerance * 1000:.2f} um of the target")
+        return None
     return min(candidates, key=lambda p: (len(p.cuts), p.method != "arcs"))
+
+
+def _unplannable(target: Target, limits: Limits, mode: str) -> "PlanError":
+    """Why no plan keeps within the tolerance: each limit is relaxed in turn, and the first
+    whose relaxing lets a plan through is named (worked out only when planning failed)."""
+    tolerance, grid = limits.tolerance, limits.grid
+    needed = _needed_tolerance(target, limits, mode)
+    start, end = target.start, target.end
+    a, b = grid.snap(*start), grid.snap(*end)
+    off = max(math.dist(a, start), math.dist(b, end))
+    within = f"within {tolerance * 1000:.2f} um"
+    finer = replace(limits, grid=replace(grid, decimals=grid.decimals + 2))
+    if a == b:
+        return PlanError(f"the move is shorter than one step of the output grid ({grid.step:g} "
+                         f"{'in' if grid.inch else 'mm'}): both its ends fall on one grid point", RESOLUTION, needed)
+    if off <= tolerance and mode != LINE_MODE and _plan(target, replace(limits, arc_radius_tolerance=math.inf),
+                                                         mode) is not None:
+        return PlanError(f"the control's arc radius check ({limits.arc_radius_tolerance:g} mm) refuses every arc "
+                         f"that keeps {within}, and lines do not keep it", RADIUS_CHECK, needed)
+    if off > tolerance or _plan(target, finer, mode) is not None:
+        detail = f": an end point falls {off * 1000:.2f} um off the target" if off > tolerance else ""
+        return PlanError(f"the output grid ({grid.step:g} {'in' if grid.inch else 'mm'} steps) cannot place the "
+                         f"blocks {within} of the target{detail}", RESOLUTION, needed)
+    return PlanError(f"no blocks keep {within} of the target", TOLERANCE, needed)
+
+
+def _needed_tolerance(target: Target, limits: Limits, mode: str) -> float | None:
+    """The tolerance (mm) the nearest plan found keeps to, trying ever larger ones; None when
+    even 0.1 mm is not enough."""
+    tolerance = limits.tolerance
+    while tolerance < 0.1:
+        tolerance = min(tolerance * 2.0, 0.1)
+        found = _plan(target, replace(limits, tolerance=tolerance), mode)
+        if found is not None:
+            return found.deviation
+    return None
 
 
 def _straight(target: Target, limits: Limits) -> Plan | None:
@@ -690,8 +734,20 @@ def _straight(target: Target, limits: Limits) -> Plan | None:
     return Plan([Cut(a[0], a[1], b[0], b[1])], deviation, "line")
 
 
+#: The limits that can stop a plan (PlanError.limit).
+RESOLUTION, RADIUS_CHECK, TOLERANCE = "output resolution", "arc radius check", "tolerance"
+
+
 class PlanError(ValueError):
-    """No sequence of blocks on the control's grid follows the target within tolerance."""
+    """No sequence of blocks on the control's grid follows the target within tolerance.
+
+    ``limit`` names what stops it (RESOLUTION, RADIUS_CHECK or TOLERANCE); ``needed`` is the
+    tolerance (mm) the nearest plan found keeps to, None if none was found below 0.1 mm."""
+
+    def __init__(self, message: str, limit: str = TOLERANCE, needed: float | None = None):
+        super().__init__(message)
+        self.limit = limit
+        self.needed = needed
 
 
 def chord_minimum(radius: float, sweep: float, tolerance: float) -> int:
@@ -700,4 +756,4 @@ def chord_minimum(radius: float, sweep: float, tolerance: float) -> int:
     return math.ceil(abs(sweep) / step)
 
 
-__all__ = ["Target", "Cut", "Plan", "Limits", "plan", "PlanError", "sample_params", "measure_bends", "chord_minimum", "Line", "Arc"]
+__all__ = ["Target", "Cut", "Plan", "Limits", "plan", "PlanError", "RESOLUTION", "RADIUS_CHECK", "TOLERANCE", "sample_params", "measure_bends", "chord_minimum", "Line", "Arc"]

@@ -102,7 +102,7 @@ def _explain(exc: LarkError, text: str) -> tuple[str, int]:
         if token.type == "SEQUENCE_NUMBER":
             return "a sequence number N must begin the block", col
         if last is not None and last.type == "EOB":
-            return "only a comment may follow ';', the end of the block", col
+            return "only comments and ';' may follow ';', the end of the block: the rest goes on a line of its own", col
         if last is not None and last.type == "ADDRESS":
             return f"address {last.upper()} has no value (FANUC alarm PS0005)", last.column - 1
         if last is not None and last.type == "SIGN":
@@ -196,7 +196,7 @@ def _detail_of(items, text: str, words: tuple[Word, ...]) -> Detail:
         if isinstance(item, Token):
             if item.type == "COMMENT":
                 comments.append(Comment(str(item), start))
-            elif item.type == "EOB":
+            elif item.type == "EOB" and eob_col is None:  # the block ends at its first ';'
                 eob_col = start
             elif item.type == "SEQUENCE_NUMBER":
                 label_col = start

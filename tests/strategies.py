@@ -3,7 +3,8 @@
 ``lines()`` writes any block the grammar accepts (every address, macro statements,
 comments anywhere, odd spacing and case); ``lathe_programs()`` writes whole programs a
 lathe interpreter runs without error, with every formatting habit of the corpus (CRLF,
-tabs, ``;``, leading-dot numbers, a last line without its newline).
+tabs, ``;`` as a printed end of block, also twice and around a comment, leading-dot
+numbers, a label after the opening ``%``, a last line without its newline).
 """
 
 from __future__ import annotations
@@ -103,9 +104,18 @@ def lines(draw) -> str:
                 parts.append(draw(words()))
             parts.append(draw(SPACE) if parts[-1][-1].isalpha() is False else " ")
     if draw(st.booleans()):
-        parts.append(";" + draw(SPACE))
-    if draw(st.integers(0, 3)) == 0:
+        parts.append(draw(ends()))
+    elif draw(st.integers(0, 3)) == 0:
         parts.append(draw(comments()) + draw(SPACE))
+    return "".join(parts)
+
+
+@st.composite
+def ends(draw) -> str:
+    """A printed end of block: ``;``, then perhaps comments and more ``;`` (``M09; (OFF);``)."""
+    parts = [";" + draw(SPACE)]
+    for _ in range(draw(st.integers(0, 3))):
+        parts.append(draw(st.one_of(comments(), st.just(";"))) + draw(SPACE))
     return "".join(parts)
 
 
@@ -166,8 +176,8 @@ def lathe_blocks(draw) -> str:
     else:
         parts.append(f"G01 X{draw(numbers(signed=False))} Z{draw(numbers())} F0.2")
     if draw(st.integers(0, 3)) == 0:
-        parts.append(";")
-    if draw(st.integers(0, 3)) == 0:
+        parts.append(draw(ends()))
+    elif draw(st.integers(0, 3)) == 0:
         parts.append(draw(SPACE) + draw(comments()))
     parts.append(draw(st.sampled_from(["", "", " ", "\t"])))
     return "".join(parts)
@@ -179,7 +189,8 @@ def lathe_programs(draw) -> str:
     eol = draw(EOL)
     mixed = draw(st.integers(0, 4)) == 0
     body = [draw(lathe_blocks()) for _ in range(draw(st.integers(0, 25)))]
-    head = draw(st.sampled_from([[], ["%"], ["%", "O1234"], ["o0001 (PART)"], ["%", "<PART-7>"]]))
+    head = draw(st.sampled_from([[], ["%"], ["%", "O1234"], ["o0001 (PART)"], ["%", "<PART-7>"], ["%O1200(TOKARKA)"],
+                                 ["% O0042 (SHAFT);"], ["%;", "O1234;"]]))
     tail = draw(st.sampled_from([[], ["M30"], ["M30", "%"], ["M30;", "%"]]))
     lines_ = head + ["G00 X50. Z5. F0.2"] + body + tail
     text = "".join(line + (draw(EOL) if mixed else eol) for line in lines_)

@@ -92,3 +92,68 @@ def test_log_copies_messages_to_a_file(run, tmp_path):
     result = run("--log", str(log), "check", input=HEMISHELL)
     assert result.exit_code == 0
     assert log.read_text() == "<stdin>: ok: 10 lines, 4 moves, 0 warnings\n"
+
+
+# A shop program with axis words of both spellings: X86. and Z0.25, then G01X118 and G00Z220.
+MIXED = (b"%\nO0001\nG21 G99 G18\nT0101\nG00 X120. Z5.\nG01 X86. Z0.25 F0.2\nG01X118\nG00Z220\n"
+         b"G01 X104 Z-50. F0.2\nM30\n%\n")
+
+
+def _mixed_model(run, tmp_path):
+    from conftest import SAMPLES
+
+    model = tmp_path / "model.json"
+    assert run("fit", "--plugin", "parametric", "--ballbar", str(SAMPLES / "ballbar/v40r-100-ccw.csv"),
+               "--ballbar", str(SAMPLES / "ballbar/v40r-100-cw.csv"), "--option", "extrapolate=true",
+               "-o", str(model)).exit_code == 0
+    return str(model)
+
+
+def test_check_warns_at_the_first_plain_axis_word_of_a_mixed_program(run):
+    result = run("check", input=MIXED)
+    assert result.exit_code == 0
+    assert result.stdout == ""
+    lines = result.stderr.splitlines()
+    assert lines[0].startswith("<stdin>:7:4: warning: X118 has no decimal point while other axis words have one: "
+                               "read in least input increments (IS-B) it is 0.118 mm; on a control with "
+                               "calculator-type input (parameter 3401 bit 0, DPI) it is 118 mm")
+    assert lines[1:3] == ["    G01X118", "       ^"]
+    assert lines[-1] == "<stdin>: ok: 11 lines, 5 moves, 1 warnings"
+
+
+def test_compensate_refuses_a_mixed_program_until_the_profile_says_how_the_control_reads_it(run, tmp_path):
+    model = _mixed_model(run, tmp_path)
+    result = run("compensate", "--model", model, input=MIXED)
+    assert result.exit_code == 4
+    assert result.stdout_bytes == b""
+    first = result.stderr.splitlines()[0]
+    assert first.startswith("<stdin>:7:4: error: X118 has no decimal point")
+    assert first.endswith("state which in the machine profile, calculator_input = true or false")
+    for stated, words in (("true", ("X118.Z0.249", "X103.993 Z-50.002")), ("false", ("X0.114Z0.249", "X0.1 Z-50.002"))):
+        machine = tmp_path / f"{stated}.toml"
+        machine.write_text(f"calculator_input = {stated}\n")
+        result = run("compensate", "--model", model, "--machine", str(machine), input=MIXED)
+        assert result.exit_code == 0, result.stderr
+        assert "warning" not in result.stderr
+        out = result.stdout
+        assert all(word in out for word in words), out
+        assert run("check", "--machine", str(machine), input=result.stdout_bytes).exit_code == 0
+
+
+def test_a_program_in_one_spelling_needs_no_word_on_calculator_input(run, tmp_path):
+    model = _mixed_model(run, tmp_path)
+    plain = b"G21 G99 G18\nG00 X120000 Z5000\nG01 X86000 Z250 F0.2\nG04 X1000\nG28 U0 W0\nM30\n"
+    for program in (plain, HEMISHELL):
+        result = run("compensate", "--model", model, input=program)
+        assert result.exit_code == 0, result.stderr
+        assert "decimal point" not in result.stderr
+
+
+def test_calculator_input_is_unset_unless_the_profile_states_it(run, tmp_path):
+    shown = run("profile", "show")
+    assert shown.exit_code == 0 and "calculator_input" not in shown.stdout
+    machine = tmp_path / "m.toml"
+    machine.write_text("calculator_input = 1\n")
+    result = run("check", "--machine", str(machine), input=HEMISHELL)
+    assert result.exit_code == 3
+    assert "calculator_input must be true or false" in result.stderr

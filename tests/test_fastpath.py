@@ -77,7 +77,8 @@ def test_arbitrary_fragments_agree_or_are_refused_by_both(parts):
 
 
 @pytest.mark.parametrize("text", ["%", " % ", "%\t", "O1234", "o0001 (PART)", "O1234;", "O1234 (X) ;", "O 12",
-                                  "O12(A(B))", "%(C)", "<NAME>", "O1234 ; (C)"])
+                                  "O12(A(B))", "%(C)", "<NAME>", "O1234 ; (C)",
+                                  "O1234; (C) ;;", "%;"])
 def test_tape_marks_and_headers_agree(text):
     _agree(text)
 
@@ -92,6 +93,8 @@ def test_tape_marks_and_headers_agree(text):
     ("(COMMENT ONLY)", True),
     ("G01 X100 Z-1.", False),  # no decimal point: least input increments
     ("G01 X1.23456 Z-1.", False),  # more digits than the canonical form takes
+    ("G01 X10. Z-1.; (C);", False),  # more after the ';'
+    ("N200 G01 Z.1 M09; (Retract, Collant Off);", False),
     ("G01 Z-1. X10.", False),  # words out of order
     ("g01 x10. z-1.", False),  # lower case
     ("G01  X10.", False),  # two spaces
@@ -106,3 +109,11 @@ def test_canonical_form(text, canonical):
         _agree(text)
     if canonical:
         assert dict(block.codes) == {letter: value for letter, value in zip("GXZIKRF", block.fields[1:]) if value}
+
+
+@pytest.mark.parametrize("text", ["N200 G01 Z.1 M09; (Retract, Collant Off);", "G01 X1.;;", "X1. (A); (B) ; ",
+                                  "M30;\t;", "O1200; (TOKARKA);"])
+def test_printed_ends_of_block_take_the_fast_path(text):
+    """A ';' with comments and more ';' after it is common in files from other controls:
+    the fast path reads it, as the grammar does."""
+    assert _agree(text)

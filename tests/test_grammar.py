@@ -52,6 +52,32 @@ def test_spelling_and_columns_are_kept():
     assert block.has_eob
 
 
+@pytest.mark.parametrize(
+    "text, comments, eob_col",
+    [
+        ("N200 G01 Z.1 M09; (Retract, Collant Off);", ["(Retract, Collant Off)"], 16),
+        ("G01 X1.;;", [], 7),
+        ("G01 X1. ; ; (A) ;  ", ["(A)"], 8),
+        ("G01 X1. (A); (B) (C);\t", ["(A)", "(B)", "(C)"], 11),
+        (";", [], 0),
+        (" ; (ONLY A COMMENT) ;", ["(ONLY A COMMENT)"], 1),
+    ],
+)
+def test_semicolon_ends_the_block_wherever_a_printed_program_has_it(text, comments, eob_col):
+    """``;`` is the end of block as the screen prints it: files carry it before and after a
+    trailing comment, twice, with spaces after; the block's words are those before the first."""
+    block = parse(text)
+    assert [c.text for c in block.comments] == comments
+    assert block.detail.eob_col == eob_col
+    assert all(word.col < eob_col for word in block.words)
+
+
+def test_semicolons_after_a_program_number():
+    block = parse("O1200; (TOKARKA);")
+    assert block.kind == HEADER
+    assert [c.text for c in block.comments] == ["(TOKARKA)"]
+
+
 def test_block_delete_levels():
     assert parse("/N10 G00 X1.").delete == 1
     assert parse("/3 G00 X1.").delete == 3
@@ -141,7 +167,8 @@ def test_m98_m99_g65():
         ("#1 = [2 + 3", 12, "']' missing"),
         ("G01 X1. #1=2", 9, "stand alone"),
         ("G01 X1. N10", 9, "sequence number N must begin"),
-        ("X1. ; G01", 7, "only a comment may follow"),
+        ("X1. ; G01", 7, "only comments and ';' may follow"),
+        ("N200 G01 Z.1 M09; (C); X1.", 24, "only comments and ';' may follow"),
     ],
 )
 def test_refusals_name_the_column(text, col, words):

@@ -35,6 +35,30 @@ def test_no_decimal_point_counts_least_input_increments():
     assert geometry(result[-1])[3] == pytest.approx((0.0005 * 25.4, -0.0005 * 25.4))
 
 
+@pytest.mark.parametrize("increment, inch, expected", [
+    ("IS-A", False, 1.18), ("IS-B", False, 0.118), ("IS-C", False, 0.0118),
+    ("IS-A", True, 0.118 * 25.4), ("IS-B", True, 0.0118 * 25.4), ("IS-C", True, 0.00118 * 25.4),
+])
+def test_a_plain_number_is_in_least_input_increments_without_calculator_input(increment, inch, expected):
+    units = "G20" if inch else "G21"
+    for calculator in (False, None):  # stated false, or not stated: the FANUC default
+        result = moves(f"G18 {units} G99 F0.01\nG00 X100. Z1.\nG01 X118 Z-1.\n", input_increment=increment,
+                       calculator_input=calculator)
+        assert result[-1].x1 == pytest.approx(expected / 2.0)
+
+
+@pytest.mark.parametrize("inch", [False, True])
+def test_calculator_input_reads_a_plain_number_in_mm_or_inches(inch):
+    units, scale = ("G20", 25.4) if inch else ("G21", 1.0)
+    program = f"G18 {units} G99 F0.01\nG00 X100. Z1.\nG01 X118 Z-1\nG02 X138 Z-11 R10\nG01 W-5 ,C1\nU4 W-4\n"
+    result = moves(program, calculator_input=True)
+    assert result[1].x1 == pytest.approx(59.0 * scale) and result[1].z1 == pytest.approx(-1.0 * scale)
+    arc = result[2]
+    assert math.hypot(arc.x1 - arc.xc, arc.z1 - arc.zc) == pytest.approx(10.0 * scale)
+    chamfered = result[3]  # W-5 with a 1 (mm or in) chamfer before the diagonal move
+    assert chamfered.z1 == pytest.approx(-15.0 * scale)
+
+
 def test_inch_program_is_converted_to_mm():
     result = moves("G20 G99 F0.01\nG00 X2. Z0.1\nG01 Z-1.\n")
     assert geometry(result[-1])[2:4] == ((25.4, 2.54), (25.4, -25.4))

@@ -91,6 +91,12 @@ def test_formatting_habits(text):
     "G00 X10. Z1.\nG01 X20. F0\nX30.\n",  # F0 on a canonical block
     "N10 G00 X10. Z1. F.1 (PART) ;\nG01 X11.1234 Z-.5\nG03 X12. Z-1. K-.5 I.1\n",  # words out of order
     "G00 X10. Z1. F.1\nG01 X12345.6\nG01 X1.23456\n",  # more digits than the canonical form takes
+    "G00 X10. Z1. F.1\nG12.1\nG01 X20. C5.\nG01 X10. Z-1.\nG13.1\nG00 X30. Z2.\nG01 X20. Z-1.\n",  # polar interpolation
+    "G00 X10. Z1. F.1\nG32 Z-10. F1.5\nG00 X20.\nZ1.\nG01 X10. F.1\n",  # threading, then canonical blocks
+    "%O1200(TOKARKA)\nG00 X10. Z1. F.1;\nG01 X20. Z-1.; (A);\nM30;\n%\n",  # a label, printed ends of block
+    "G00 X10. Z1. F.1\nG01X118\nG00Z220\nG04 X1000\n",  # a plain axis word after decimal ones
+    "G00 X10 Z1 F.1\nG01 X20. Z-1.\n",  # plain words first, a canonical block after
+    "G00 X10 Z1 F.1\nG04 X15\nG28 U0 W0\nG01 X20. Z-1.\n",  # a dwell and zeros are no axis words
 ])
 def test_edge_cases(text):
     _same(text)

@@ -67,7 +67,9 @@ class Style:
     lowercase: float        # probability that a line is written in lowercase
     numbered: float         # probability that a block has an N number
     n_step: int
-    semicolons: bool        # blocks end with ';'
+    eob: str                # what ends a block as printed: '', ';', ';;', '; '
+    tail_comments: bool     # a comment after the ';', and another ';' (N200 G01 Z.1 M09; (COOLANT OFF);)
+    label: bool             # the O number on the '%' line: %O1200(PART), which the control skips
     crlf: bool
     spaces: bool            # words separated by spaces (FANUC needs none)
     short_g: float          # probability of G1 instead of G01
@@ -81,7 +83,9 @@ def _style(rng: random.Random) -> Style:
         lowercase=rng.choice((0.0, 0.0, 0.2, 1.0)),
         numbered=rng.choice((0.0, 0.5, 1.0)),
         n_step=rng.choice((1, 5, 10)),
-        semicolons=rng.random() < 0.4,
+        eob=rng.choice(("", "", "", ";", ";", ";;", "; ")),
+        tail_comments=rng.random() < 0.5,
+        label=rng.random() < 0.2,
         crlf=rng.random() < 0.3,
         spaces=rng.random() < 0.8,
         short_g=rng.choice((0.0, 0.5, 1.0)),
@@ -120,10 +124,11 @@ class _Writer:
             self.n += self.style.n_step
             words = [f"N{self.n}", *words]
         text = (" " if self.style.spaces else "").join(words)
-        if self.rng.random() < self.style.comments:
-            text += f" ({self.rng.choice(COMMENTS)})"
-        if self.style.semicolons:
-            text += ";"
+        comment = f"({self.rng.choice(COMMENTS)})" if self.rng.random() < self.style.comments else ""
+        if comment and self.style.eob and self.style.tail_comments:
+            text += f"{self.style.eob.rstrip()} {comment};"
+        else:
+            text += (" " + comment if comment else "") + self.style.eob
         if self.rng.random() < self.style.lowercase:
             text = text.lower()
         self.lines.append(text)
@@ -282,8 +287,12 @@ def _arc(w: _Writer, state: _State) -> list[str] | None:
 
 def _header(w: _Writer, rng: random.Random, units: Units) -> None:
     """%, O number, G18, units, feed mode and an F word, in varying order and grouping."""
-    w.raw("%")
-    w.raw(f"O{rng.randint(1, 9999):04d}" + (" (DIFF TEST)" if rng.random() < 0.5 else ""))
+    header = f"O{rng.randint(1, 9999):04d}" + (" (DIFF TEST)" if rng.random() < 0.5 else "")
+    if w.style.label:  # on the tape mark's line: a label the control skips
+        w.raw("%" + header)
+    else:
+        w.raw("%")
+        w.raw(header)
     per_rev = rng.random() < 0.7
     modes = ["G18", units.code, "G99" if per_rev else "G98"]
     rng.shuffle(modes)

@@ -292,7 +292,7 @@ def to_linuxcnc(fanuc_program: str, *, units: str = "mm", gcode_system: str = "A
                 decimal_point: str = "fanuc", ignore_tool_words: bool = False) -> str:
     """Translate a FANUC lathe program of a small common subset to LinuxCNC G-code.
 
-    Accepted: ``%`` lines and O headers (dropped), comments (dropped), N words
+    Accepted: ``%`` lines (with any label after the ``%``) and O headers (dropped), comments (dropped), N words
     (replaced by the 1-based source line number so rs274's output names the
     source line), ``;`` as end of block (a line may hold several blocks),
     G00-G03, G04 (block dropped), G20/G21, X/Z absolute (X diameter), U/W
@@ -338,7 +338,7 @@ def to_linuxcnc(fanuc_program: str, *, units: str = "mm", gcode_system: str = "A
         stripped = raw.strip()
         if not stripped:
             continue
-        if stripped == "%":
+        if stripped.startswith("%"):  # a tape mark; what follows it on its line is a label the control skips
             continue
         body = _strip_comments(stripped, lineno)
         for block in body.split(";"):
