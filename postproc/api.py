@@ -23,7 +23,7 @@ from typing import Sequence
 
 from . import profile as profiles
 from .diagnostics import Diagnostic, OptionError, Reporter
-from .output import Spool
+from .output import KEEP, Spool
 from .request import Request
 from .source import Source
 
@@ -111,20 +111,10 @@ class Pipeline:
             return self.compensated(source).decode("utf-8", "surrogateescape")
 
     def compensated(self, source: Source) -> bytes:
-        """The compensated program, by way of a temporary file (the spool commits to a path)."""
-        import os
-        import tempfile
-
-        handle, path = tempfile.mkstemp(prefix="postproc-", suffix=".nc")
-        os.close(handle)
-        try:
-            with Spool(path) as spool:
-                self.compensate_source(source, spool)
-                spool.commit()
-            with open(path, "rb") as result:
-                return result.read()
-        finally:
-            os.unlink(path)
+        """The compensated program, as bytes (spooled in an anonymous file while it is made)."""
+        with Spool(KEEP) as spool:
+            self.compensate_source(source, spool)
+            return spool.value()
 
 
 def compensate_text(text: str, name: str = "<text>", **options) -> str:

@@ -74,20 +74,16 @@ class MachineProfile:
 
 DEFAULT = MachineProfile()
 
+MAX_BYTES = 1024 * 1024  #: a machine profile is a page of text
+
 _FIELDS = {f.name: f for f in dataclasses.fields(MachineProfile) if f.name != "extra"}
 
 
 def load(path: str) -> MachineProfile:
     """Read a profile from TOML; unknown keys are refused (``x-`` keys are kept aside)."""
-    import tomllib  # only when a profile is given: every run starts faster without it
+    from . import inputs
 
-    try:
-        with open(path, encoding="utf-8") as handle:
-            data = tomllib.loads(handle.read())
-    except OSError as exc:
-        raise OptionError(f"cannot read machine profile: {exc.strerror}", Location(path)) from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise OptionError(f"not a valid TOML machine profile: {exc}", Location(path)) from None
+    data, _ = inputs.read_toml(path, MAX_BYTES, OptionError, "a machine profile")
     return from_mapping(data, path)
 
 

@@ -33,7 +33,9 @@ import numpy as np
 from . import gcodes as G
 from .blocks import Block
 from .diagnostics import Location, PostprocError, Reporter, SafetyError
+from .bounds import MAX_TOLERANCE
 from .emitter import Style, Writer, with_motion_code
+from .farthest import farthest
 from .geometry import TAU, Arc, Line, segment_of
 from .interpreter import Interpreter
 from .motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
@@ -522,6 +524,7 @@ class Rewriter:
         writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
         lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
         self._self_check(entry, lines, cuts)
+        self._near_nominal(entry, cuts)
         self._follow_contour(step, cuts)
         self.mode_now = mode
         self.replaced += 1
@@ -723,6 +726,30 @@ class Rewriter:
                     raise SafetyError(
                         f"self-check: the replacement runs {planned.deviation * 1000:.2f} um from the intended path "
                         f"(tolerance {tolerance * 1000:.2f} um)", _where(self.file, step))
+
+
+    def _near_nominal(self, entry: Entry, cuts: list[Cut]) -> None:
+        """No written cut may run further from the moves it replaces than the largest correction
+        plus the tolerance (:mod:`postproc.farthest`), whatever the options: the tolerance counts
+        at most :data:`bounds.MAX_TOLERANCE` here, a widened plan's at most twice that, and one
+        output step is allowed for the rounding of connecting moves."""
+        step = entry.step
+        nominal = [segment_of(move) for move in step.moves if move.known and move.kind in (LINE, ARC, RAPID)]
+        tolerance = min(self._tolerance(step), MAX_TOLERANCE)
+        for edit in entry.edits:
+            for planned in (edit.plans if edit is not None else ()):
+                if planned.widened:
+                    tolerance = max(tolerance, min(planned.deviation, 2.0 * tolerance))
+        grid = self._grid(step)
+        allowed = self.largest + tolerance + max(grid.x_step, grid.z_step)
+        for cut in cuts:
+            distance = farthest(cut, nominal[0]) if len(nominal) == 1 else min([farthest(cut, segment)
+                                                                               for segment in nominal])
+            if distance > allowed:
+                raise SafetyError(
+                    f"the replacement would run {distance * 1000:.1f} um from the programmed path, more than the "
+                    f"largest correction ({self.largest * 1000:.2f} um) plus the tolerance ({tolerance * 1000:.2f} um) "
+                    "allow: refused", _where(self.file, step))
 
 
 def _where(file: str, step: Step) -> Location:

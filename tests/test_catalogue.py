@@ -96,7 +96,7 @@ BALLBAR = [
     ("direction", HEAD.replace("ccw", "left").encode() + ROWS.encode(), "{f}:3: error: direction = 'left': expected ccw or cw"),
     ("unknown-key", HEAD.replace("angle_deg", "# raduis_mm = 5\nangle_deg").encode() + ROWS.encode(),
      "{f}:4: error: unknown header key 'raduis_mm' (known: capture_arc_deg, center_x_mm, center_z_mm, centered, "
-     "direction, feed_mm_min, radius_mm, start_angle_deg; keys of your own start with x-)"),
+     "direction, feed_mm_min, measured, radius_mm, start_angle_deg; keys of your own start with x-)"),
     ("twice", HEAD.replace("# direction", "# radius_mm = 100\n# direction").encode() + ROWS.encode(),
      "{f}:3: error: header key 'radius_mm' given twice (first on line 2)"),
     ("bad-header-line", HEAD.replace("radius_mm = 100", "radius_mm 100").encode() + ROWS.encode(),

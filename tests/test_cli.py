@@ -7,11 +7,16 @@ from conftest import corpus
 HEMISHELL = b"%\nO1000 (HEMISHELL)\nG18 G21 G99\nT0101\nG00 X0. Z60.\nG01 Z57.15 F0.1\nG03 X114.3 Z0. I0. K-57.15\nG00 X150.\nM30\n%\n"
 
 
-def test_compensate_without_compensator_is_the_identity(run, tmp_path):
+NOTHING_APPLIED = ("postproc: warning: no compensator was given (--plugin or --model): nothing was applied; the "
+                   "program is written back unchanged\n")
+
+
+def test_compensate_without_compensator_is_the_identity_and_says_so(run, tmp_path):
+    """An empty $PLUGIN in a post-processing script must not send an uncompensated part silently."""
     source = tmp_path / "part.nc"
     source.write_bytes(HEMISHELL)
     result = run("compensate", str(source))
-    assert (result.exit_code, result.stdout_bytes, result.stderr) == (0, HEMISHELL, "")
+    assert (result.exit_code, result.stdout_bytes, result.stderr) == (0, HEMISHELL, NOTHING_APPLIED)
     target = tmp_path / "out.nc"
     result = run("compensate", str(source), "-o", str(target))
     assert (result.exit_code, result.stdout_bytes) == (0, b"")

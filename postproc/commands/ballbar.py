@@ -23,6 +23,7 @@ from ..ballbar_analysis import MAX_GAP_DEG, CircularTest, Diagnosis, Estimate, c
 from ..diagnostics import Reporter, UsageError
 from ..measurements.ballbar import BallbarTrace, read_ballbar
 from ..plotting import plot_traces
+from .common import POSITIVE
 
 BOTH_DIRECTIONS = ["bidirectional_circular_deviation_mm", "hysteresis_mm", "squareness_rad", "servo_mismatch_mm",
                    "servo_lag_ms"]
@@ -36,7 +37,7 @@ DIAGNOSIS = ["scaling_x", "scaling_z", "backlash_x_mm", "backlash_z_mm", "square
 @click.option("--plot", metavar="FILE", help="Write a polar plot of the traces (.png or .svg).")
 @click.option("--averaging", type=click.IntRange(min=1), default=6, show_default=True, metavar="N",
               help="Raw form: readings averaged per sample.")
-@click.option("--max-deviation", type=click.FloatRange(min=0.0, min_open=True), default=1.0, show_default=True,
+@click.option("--max-deviation", type=POSITIVE, default=1.0, show_default=True,
               metavar="MM", help="A deviation beyond this is not a plausible ballbar reading.")
 def command(files, as_json, plot, averaging, max_deviation):
     """ISO 230-4 figures and error diagnosis of one ballbar trace, or of a ccw and a cw trace."""

@@ -34,6 +34,7 @@ from ..pretravel import fit_calibration
 from ..probing import FORCE_FLAG, ProbedProfile, probe_profile
 from ..profile import DEFAULT, load
 from ..simulator.nominal import chain, read_program
+from .common import FINITE
 
 EXIT_RECUT = EXIT_WOULD_CHANGE  #: as ``--check``: the part would change if the loop goes on
 IN_TOLERANCE, RECUT = "in tolerance", "re-cut with compensation"
@@ -58,7 +59,7 @@ def compensate_command(program: str, probe: str, calibration: str | None, machin
 @click.argument("program", default="-")
 @click.option("--probe", "probe_path", required=True, metavar="FILE", help="Probe points measured on the part.")
 @click.option("--calibration", metavar="FILE", help="A probe calibration on an artifact.")
-@click.option("--band", type=float, required=True, metavar="MM",
+@click.option("--band", type=FINITE, required=True, metavar="MM",
               help="Tolerance: every cleaned deviation must lie within +-MM.")
 @click.option("--from-line", type=int, metavar="L", help="Profile: moves from this source line.")
 @click.option("--to-line", type=int, metavar="L", help="Profile: moves up to this source line.")

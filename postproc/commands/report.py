@@ -18,6 +18,7 @@ import click
 
 from ..diagnostics import Reporter, UsageError
 from ..output import STDOUT, write_atomically
+from .common import FINITE
 
 
 @click.command("report")
@@ -30,7 +31,7 @@ from ..output import STDOUT, write_atomically
 @click.option("--model", metavar="FILE", help="A saved compensation model.")
 @click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
 @click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
-@click.option("--tolerance", type=float, metavar="MM", help="Largest deviation of the emitted path.")
+@click.option("--tolerance", type=FINITE, metavar="MM", help="Largest deviation of the emitted path.")
 def command(program, output, plugins, ballbar, probe, calibration, model, options, machine, tolerance):
     """An HTML report: measurements, ISO figures, fitted models, predicted profile, provenance."""
     from .. import profile as profiles

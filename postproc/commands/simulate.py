@@ -21,6 +21,7 @@ from ..output import STDOUT, write_atomically
 from ..simulator import ballbar_test, calibrate, cut, generator, inspect, load, nominal, probe_profile, read_program
 from ..simulator.files import calibration_text, probe_text, read_surface, surface_text, trace_text
 from ..simulator.nominal import MATERIAL
+from .common import FINITE
 
 
 def _machine(function):
@@ -83,10 +84,10 @@ def command() -> None:
 @click.option("--direction", type=click.Choice(["ccw", "cw"]), default="ccw", show_default=True,
               help="ccw: the G03 run (theta decreasing); cw: the G02 run.")
 @click.option("--form", type=click.Choice(["processed", "raw"]), default="processed", show_default=True)
-@click.option("--radius", type=float, metavar="MM", help="Test radius (default: the table's).")
-@click.option("--center-x", type=float, metavar="MM", help="Test centre x (radius mm).")
-@click.option("--center-z", type=float, metavar="MM", help="Test centre z.")
-@click.option("--feed", type=float, metavar="MM/MIN", help="Feed (default: the table's).")
+@click.option("--radius", type=FINITE, metavar="MM", help="Test radius (default: the table's).")
+@click.option("--center-x", type=FINITE, metavar="MM", help="Test centre x (radius mm).")
+@click.option("--center-z", type=FINITE, metavar="MM", help="Test centre z.")
+@click.option("--feed", type=FINITE, metavar="MM/MIN", help="Feed (default: the table's).")
 @_output
 def ballbar(machine, seed, direction, form, radius, center_x, center_z, feed, output):
     """A ballbar trace: the 720 deg test of methods.md 3 in one direction."""
@@ -133,10 +134,10 @@ def probe(program, from_line, to_line, material, surface, points, machine, seed,
 @command.command("calibrate")
 @_machine
 @_seed
-@click.option("--radius", type=float, metavar="MM", help="Artifact radius (default: the table's).")
-@click.option("--center-x", type=float, metavar="MM", help="Artifact centre x (radius mm).")
-@click.option("--center-z", type=float, metavar="MM", help="Artifact centre z.")
-@click.option("--step-deg", type=float, metavar="DEG", help="Angle between touches (default: the table's).")
+@click.option("--radius", type=FINITE, metavar="MM", help="Artifact radius (default: the table's).")
+@click.option("--center-x", type=FINITE, metavar="MM", help="Artifact centre x (radius mm).")
+@click.option("--center-z", type=FINITE, metavar="MM", help="Artifact centre z.")
+@click.option("--step-deg", type=FINITE, metavar="DEG", help="Angle between touches (default: the table's).")
 @_output
 def calibrate_command(machine, seed, radius, center_x, center_z, step_deg, output):
     """A probe calibration on the sphere artifact: touches over its top 180 deg."""
