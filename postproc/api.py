@@ -21,8 +21,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Sequence
 
+from . import bounds
 from . import profile as profiles
-from .diagnostics import Diagnostic, OptionError, Reporter
+from .diagnostics import Diagnostic, Reporter
 from .output import KEEP, Spool
 from .request import Request
 from .source import Source
@@ -61,10 +62,6 @@ class Pipeline:
         regions: Sequence[str] = (),
         reporter: Reporter | None = None,
     ):
-        if tolerance is not None and not tolerance > 0:
-            raise OptionError(f"--tolerance {tolerance}: the tolerance must be positive")
-        if max_correction is not None and not max_correction > 0:
-            raise OptionError(f"--max-correction {max_correction}: must be positive")
         from .region import Region
 
         Region(list(regions))  # refuse a bad region before anything is read
@@ -72,6 +69,7 @@ class Pipeline:
         if isinstance(machine, str):
             machine = profiles.load(machine)
         self.profile = machine or profiles.DEFAULT
+        bounds.in_force(tolerance, max_correction, self.profile)
         self.reporter = reporter or Reporter()
         self.request = Request(list(plugins), list(ballbar), list(probe), calibration, model, list(options), tolerance,
                                mode, max_correction, force, list(regions))

@@ -1,5 +1,5 @@
-"""The bounds on the numbers a user gives: finite, of the right sign, and within what makes
-sense on a lathe; one place for the command line, the Python API and machine profiles.
+"""The bounds on a tolerance and a maximum correction: one place for the command line, the
+Python API and machine profiles.
 
 A tolerance is how far the emitted path may run from the compensated one, so it is never
 above the largest correction allowed (the path could then stray further than any correction
@@ -22,23 +22,6 @@ MAX_CORRECTION = 1.0  #: mm
 
 def _is_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-def finite(value: Any, name: str, where: Location | None = None) -> float:
-    """A finite number (a coordinate, a feed...), or the error naming ``name``."""
-    if not _is_number(value) or not math.isfinite(value):
-        raise OptionError(f"{name} {value}: not a finite number", where)
-    return float(value)
-
-
-def positive(value: Any, name: str, where: Location | None = None, what: str = "") -> float:
-    """A finite number above zero (a length, a radius, a time)."""
-    number = finite(value, name, where)
-    if not number > 0:
-        raise OptionError(f"{name} {value}: {what or 'must'} {'must ' if what else ''}be positive".replace("must must",
-                                                                                                          "must"),
-                          where)
-    return number
 
 
 def tolerance(value: Any, max_correction: float, name: str = "--tolerance", where: Location | None = None) -> float:
@@ -67,6 +50,17 @@ def max_correction(value: Any, name: str = "--max-correction", where: Location |
                           f"any error a compensation corrects; did you mean {value:g} um ({name} {value / 1000:g})?",
                           where)
     return float(value)
+
+
+def in_force(tolerance_mm: float | None, max_correction_mm: float | None, profile) -> float:
+    """Check a run's tolerance and maximum correction (given, or the machine profile's); the
+    maximum correction in force."""
+    largest = profile.max_correction if max_correction_mm is None else max_correction(max_correction_mm)
+    if tolerance_mm is not None:
+        tolerance(tolerance_mm, largest)
+    elif profile.tolerance is not None:
+        tolerance(profile.tolerance, largest, "tolerance =")
+    return largest
 
 
 def _um(mm: float) -> str:

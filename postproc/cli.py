@@ -54,7 +54,7 @@ def _reported(command):
         except PostprocError as exc:
             click.echo(str(exc), err=True)
             sys.exit(exc.exit_code)
-        except (click.exceptions.Exit, click.ClickException):
+        except (click.exceptions.Exit, click.ClickException, BrokenPipeError):  # a closed pipe: ends quietly
             raise
         except Exception as exc:  # a bug: say so in one line, keep the traceback for debugging
             if os.environ.get("POSTPROC_DEBUG"):
@@ -101,10 +101,10 @@ class _Commands(click.Group):
         try:
             return super().invoke(ctx)
         except KeyboardInterrupt:
-            click.echo("postproc: interrupted; no output was written", err=True)
+            click.echo("postproc: interrupted; no file was left half-written", err=True)
             sys.exit(EXIT_INTERRUPTED)
         except Stopped as stop:
-            click.echo(f"postproc: stopped by signal {signal.Signals(stop.signum).name}; no output was written",
+            click.echo(f"postproc: stopped by {signal.Signals(stop.signum).name}; no file was left half-written",
                        err=True)
             sys.exit(128 + stop.signum)
         except BrokenPipeError:

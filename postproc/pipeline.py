@@ -44,13 +44,7 @@ class Pipeline:
         self.request = request
         self.profile = profile
         self.reporter = reporter or Reporter()
-        self.max_correction = profile.max_correction
-        if request.max_correction is not None:
-            self.max_correction = bounds.max_correction(request.max_correction)
-        if request.tolerance is not None:
-            bounds.tolerance(request.tolerance, self.max_correction)
-        elif profile.tolerance is not None:
-            bounds.tolerance(profile.tolerance, self.max_correction, "tolerance (machine profile)")
+        self.max_correction = bounds.in_force(request.tolerance, request.max_correction, profile)
         context = Context(profile, self.reporter, request.tolerance or profile.default_tolerance(False), request.force)
         self.inputs: list[tuple[str, str]] = []  # (file, sha256) for the provenance
         self.measured: list = []  # when each measurement was taken (path, time or None), for a saved model

@@ -23,7 +23,7 @@ from ..ballbar_analysis import MAX_GAP_DEG, CircularTest, Diagnosis, Estimate, c
 from ..diagnostics import Reporter, UsageError
 from ..measurements.ballbar import BallbarTrace, read_ballbar
 from ..plotting import plot_traces
-from .common import POSITIVE
+from .common import POSITIVE, guard
 
 BOTH_DIRECTIONS = ["bidirectional_circular_deviation_mm", "hysteresis_mm", "squareness_rad", "servo_mismatch_mm",
                    "servo_lag_ms"]
@@ -43,6 +43,7 @@ def command(files, as_json, plot, averaging, max_deviation):
     """ISO 230-4 figures and error diagnosis of one ballbar trace, or of a ccw and a cw trace."""
     if len(files) > 2:
         raise UsageError(f"give one trace or a ccw and a cw trace of one test, not {len(files)} files")
+    guard([("FILE", name) for name in files], [("--plot", plot)])
     reporter = Reporter(sys.stderr)
     traces = [read_ballbar(name, reporter, averaging, max_deviation) for name in files]
     test = circular_test(traces)

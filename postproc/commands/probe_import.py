@@ -19,7 +19,7 @@ import click
 from ..diagnostics import OptionError, Reporter
 from ..output import STDOUT, write_atomically
 from ..probe_printout import probe_data, probe_file_text, read_printout
-from .common import FINITE
+from .common import FINITE, guard
 
 
 @click.command("probe-import")
@@ -34,6 +34,7 @@ def command(printout, stylus_radius, repeatability, output):
     for name, value in (("--stylus-radius", stylus_radius), ("--repeatability", repeatability)):
         if value is not None and not (math.isfinite(value) and value > 0):
             raise OptionError(f"{name} {value:g}: must be positive")
+    guard([("PRINTOUT", printout)], [("-o", output)])
     reporter = Reporter(sys.stderr)
     run = read_printout(printout)
     data = probe_data(run, stylus_radius, repeatability, reporter)

@@ -20,7 +20,7 @@ from ..output import STDOUT, write_atomically
 from ..probe_cycle import DATUM_SURFACES, Cycle, code_digits, plan, self_check
 from ..profile import DEFAULT, load
 from ..simulator.nominal import MATERIAL, nominal, read_program
-from .common import FINITE
+from .common import FINITE, guard
 
 DEFAULTS = Cycle()
 
@@ -60,6 +60,7 @@ def command(program, points, from_line, to_line, material, inset, stylus_radius,
     """Write a FANUC probing program (G31, DPRNT) for the profile of a part program."""
     if (datum_x is None) != (datum_z is None):
         raise UsageError("a datum is a point: give --datum-x and --datum-z together")
+    guard([("PROGRAM", program), ("--machine", machine)], [("-o", output)])
     profile = load(machine) if machine else DEFAULT
     reporter = Reporter(sys.stderr)
     name, moves = read_program(program, profile, reporter)

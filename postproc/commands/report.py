@@ -18,7 +18,7 @@ import click
 
 from ..diagnostics import Reporter, UsageError
 from ..output import STDOUT, write_atomically
-from .common import FINITE
+from .common import FINITE, guard
 
 
 @click.command("report")
@@ -44,6 +44,8 @@ def command(program, output, plugins, ballbar, probe, calibration, model, option
         raise UsageError("--option was given but no compensator (--plugin) to take it")
     if not (program or plugins or model or ballbar or probe or calibration):
         raise UsageError("nothing to report on: give a program, measurements or a compensator")
+    guard([("PROGRAM", program), ("--calibration", calibration), ("--model", model), ("--machine", machine)]
+          + [("--ballbar", name) for name in ballbar] + [("--probe", name) for name in probe], [("-o", output)])
     reporter = Reporter(sys.stderr)
     loaded = None
     if program is not None:

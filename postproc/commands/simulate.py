@@ -21,7 +21,7 @@ from ..output import STDOUT, write_atomically
 from ..simulator import ballbar_test, calibrate, cut, generator, inspect, load, nominal, probe_profile, read_program
 from ..simulator.files import calibration_text, probe_text, read_surface, surface_text, trace_text
 from ..simulator.nominal import MATERIAL
-from .common import FINITE
+from .common import FINITE, guard
 
 
 def _machine(function):
@@ -91,6 +91,7 @@ def command() -> None:
 @_output
 def ballbar(machine, seed, direction, form, radius, center_x, center_z, feed, output):
     """A ballbar trace: the 720 deg test of methods.md 3 in one direction."""
+    guard([("--machine", machine)], [("-o", output)])
     simulation, _ = load(machine)
     seed = simulation.seed if seed is None else seed
     centre = None
@@ -109,6 +110,7 @@ def ballbar(machine, seed, direction, form, radius, center_x, center_z, feed, ou
 @_output
 def cut_command(program, from_line, to_line, material, machine, output):
     """The surface a program's profile leaves: a dense polyline ordered along the path."""
+    guard([("PROGRAM", program), ("--machine", machine)], [("-o", output)])
     simulation, name, moves, profile_of = _setup(machine, program, from_line, to_line, material)
     surface = cut(moves, profile_of, simulation)
     write_atomically(output, surface_text(surface, _provenance("cut", machine, program=name)).encode())
@@ -123,6 +125,7 @@ def cut_command(program, from_line, to_line, material, machine, output):
 @_output
 def probe(program, from_line, to_line, material, surface, points, machine, seed, output):
     """A probe file: touches spread along the profile, the datum before and after."""
+    guard([("PROGRAM", program), ("--surface", surface), ("--machine", machine)], [("-o", output)])
     points = _count(points)
     simulation, name, moves, profile_of = _setup(machine, program, from_line, to_line, material)
     seed = simulation.seed if seed is None else seed
@@ -141,6 +144,7 @@ def probe(program, from_line, to_line, material, surface, points, machine, seed,
 @_output
 def calibrate_command(machine, seed, radius, center_x, center_z, step_deg, output):
     """A probe calibration on the sphere artifact: touches over its top 180 deg."""
+    guard([("--machine", machine)], [("-o", output)])
     simulation, _ = load(machine)
     seed = simulation.seed if seed is None else seed
     for name, value in (("--radius", radius), ("--step-deg", step_deg)):
