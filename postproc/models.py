@@ -64,7 +64,7 @@ def measured_at(times: list[tuple[str, dt.datetime | None]], reporter: Reporter 
             reporter.warn("no measurement time: the file has no '# measured = ...' header line and no modification "
                           "time (a pipe?); the model counts it as measured now", Location(path))
     oldest = min((moment or now for _, moment in times), default=now)
-    return oldest.replace(microsecond=0).isoformat()
+    return oldest.astimezone(dt.timezone.utc).replace(microsecond=0).isoformat()
 
 
 def _mtime(path: str) -> float | None:
@@ -116,8 +116,9 @@ def read(path: str) -> dict[str, Any]:
         raise ModelError(f"not a postproc model (not JSON: {exc})", where) from None
     except RecursionError:
         raise ModelError(f"not a postproc model (nested deeper than {MAX_DEPTH} levels)", where) from None
-    except ValueError as exc:  # NaN or Infinity, an integer of thousands of digits
-        raise ModelError(f"not a postproc model ({exc})", where) from None
+    except ValueError as exc:  # NaN or Infinity; an integer of thousands of digits
+        reason = str(exc) if "number a model holds" in str(exc) else "an integer of thousands of digits"
+        raise ModelError(f"not a postproc model ({reason})", where) from None
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise ModelError("not a postproc model (no 'format: postproc model')", where)
     if data.get("version") != VERSION:
@@ -162,7 +163,7 @@ def _check(data: dict[str, Any], where: Location) -> None:
 def _values(value: Any, name: str, depth: int, where: Location) -> None:
     """Every number finite and plausible, every radius positive, nothing nested too deeply."""
     if depth > MAX_DEPTH:
-        raise ModelError(f"{name}: nested deeper than {MAX_DEPTH} levels: not a model", where)
+        raise ModelError(f"not a postproc model (nested deeper than {MAX_DEPTH} levels)", where)
     if isinstance(value, dict):
         for key, item in value.items():
             path = f"{name}.{key}"

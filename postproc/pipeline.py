@@ -113,8 +113,9 @@ class Pipeline:
 
     @staticmethod
     def _guarded(compensator: Compensator, what: str, function, *args, model: str | None = None):
-        """Call a compensator; its failure is named. Loading a ``model`` file, a failure on the
-        file's content (a missing key, a value of the wrong type) is the file's: a ModelError."""
+        """Call a compensator; its failure is named. For a compensator given a saved ``model``, a
+        failure on data (a missing key, a value of the wrong type), in loading it or in using it
+        later, is the file's: a ModelError (exit 3), not the compensator's (exit 5)."""
         try:
             with _time_limit(compensator.context.profile.plugin_time_limit_s):
                 return function(*args)
@@ -124,7 +125,7 @@ class Pipeline:
             if model is None:
                 raise PluginError(compensator.name, f"{what} failed: {exc.__class__.__name__}: {exc}") from None
             raise ModelError(f"the model's content does not suit compensator {compensator.name} (is it another "
-                             f"compensator's?): {exc.__class__.__name__}: {exc}", Location(model)) from None
+                             f"compensator's?): {what}: {exc.__class__.__name__}: {exc}", Location(model)) from None
         except _Overtime:
             raise PluginError(compensator.name, f"{what} took longer than {compensator.context.profile.plugin_time_limit_s:g} s "
                               "(the machine profile's plugin_time_limit_s): stopped") from None
@@ -141,7 +142,7 @@ class Pipeline:
                      for m in step.moves if m.kind in (LINE, ARC) and m.known]
             for compensator in self.compensators:
                 if compensator.needs_survey:
-                    self._guarded(compensator, "survey", compensator.survey, moves)
+                    self._guarded(compensator, "survey", compensator.survey, moves, model=self.request.model)
         settings = Settings(
             tolerance=self.request.tolerance,
             mode=self.request.mode,
@@ -190,7 +191,7 @@ class Pipeline:
 
         lines: list[str] = []
         for compensator in self.compensators:
-            for text in self._guarded(compensator, "prologue", compensator.prologue):
+            for text in self._guarded(compensator, "prologue", compensator.prologue, model=self.request.model):
                 try:
                     for _ in Interpreter(self.profile, Reporter(), "<prologue>").run(read_blocks([text + "\n"], "<prologue>")):
                         pass
@@ -215,11 +216,12 @@ class Pipeline:
     def _corrector(self):
         """The corrections of every compensator for a run of pieces, checked and added."""
         compensators = self.compensators
+        model = self.request.model
 
         def correct(pieces: list[Piece]) -> list[np.ndarray | None]:
             totals: list[np.ndarray | None] = [None] * len(pieces)
             for compensator in compensators:
-                shifts = self._guarded(compensator, "correct", compensator.correct_many, pieces)
+                shifts = self._guarded(compensator, "correct", compensator.correct_many, pieces, model=model)
                 for index, shift in enumerate(_checked(compensator.name, shifts, pieces)):
                     if shift is not None:
                         total = totals[index]

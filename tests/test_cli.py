@@ -97,3 +97,18 @@ def test_log_copies_messages_to_a_file(run, tmp_path):
     result = run("--log", str(log), "check", input=HEMISHELL)
     assert result.exit_code == 0
     assert log.read_text() == "<stdin>: ok: 10 lines, 4 moves, 0 warnings\n"
+
+
+def test_jobs_are_capped_at_the_programs_and_cpus_and_say_so(run, tmp_path):
+    import os
+
+    programs = corpus("fanuc")[:2]
+    cpus = len(os.sched_getaffinity(0))
+    result = run("compensate", *map(str, programs), "--out-dir", str(tmp_path), "--jobs", "64")
+    assert result.exit_code == 0, result.stderr
+    workers = min(2, cpus)
+    assert result.stderr.splitlines()[0] == (f"postproc: warning: --jobs 64: {workers} processes run (2 programs, "
+                                             f"{cpus} CPUs)")
+    absurd = run("compensate", *map(str, programs), "--out-dir", str(tmp_path / "x"), "--jobs", "100000")
+    assert absurd.exit_code == 2 and not (tmp_path / "x").exists()
+    assert run("compensate", *map(str, programs), "--out-dir", str(tmp_path), "--jobs", "0").exit_code == 2
