@@ -137,15 +137,23 @@ class _Tee:
 
     def write(self, text: str) -> int:
         if self.log is not None:
-            self.log.write(text)
-            self.log.flush()
+            try:
+                self.log.write(text)
+                self.log.flush()
+            except OSError as exc:  # a full disk under the log must not lose the message itself
+                self.detach_log()
+                self.stream.write(format_message("warning", f"--log: cannot write the log ({exc.strerror}); "
+                                                            "messages go to stderr only", None) + "\n")
         return self.stream.write(text)
 
     def detach_log(self) -> None:
-        """Stop copying to the log (it turned out to be one of the run's inputs)."""
-        if self.log is not None:
-            self.log.close()
-            self.log = None
+        """Stop copying to the log (it turned out to be one of the run's inputs, or cannot be written)."""
+        log, self.log = self.log, None
+        if log is not None:
+            try:
+                log.close()
+            except OSError:
+                pass
 
     def flush(self) -> None:
         self.stream.flush()
@@ -304,8 +312,9 @@ def _workers(jobs: int, programs: int) -> int:
         cpus = os.cpu_count() or 1
     workers = max(1, min(jobs, programs, cpus))
     if workers < jobs:
-        click.echo(format_message("warning", f"--jobs {jobs}: {workers} processes run ({programs} programs, "
-                                             f"{cpus} CPUs)", None), err=True)
+        runs = "1 process runs" if workers == 1 else f"{workers} processes run"
+        counted = f"{programs} program{'s' * (programs != 1)}, {cpus} CPU{'s' * (cpus != 1)}"
+        click.echo(format_message("warning", f"--jobs {jobs}: {runs} ({counted})", None), err=True)
     return workers
 
 

@@ -69,6 +69,9 @@ def destination(given: str) -> Destination:
     """What writing to ``given`` means (see the module's docstring); refuses a directory or a disk."""
     where = Location(given)
     path = os.path.abspath(given)
+    if given.endswith(os.sep) and not os.path.isdir(path):
+        raise OutputError("cannot write output: the name ends with '/', a folder's name; give a file name (or "
+                          "--out-dir DIR); nothing was written", where)
     if _descriptor_link(path):
         return Destination(given, path, True)
     try:
@@ -300,24 +303,24 @@ def refuse_overwrite(inputs: Iterable[tuple[str, str]], outputs: Iterable[tuple[
     ``inputs`` and ``outputs`` are (option, path) pairs, the option naming it in the message
     (``-o``, ``--report``, ``program``...). Files are compared by identity (device and inode:
     hard links and symbolic links are the same file) and, for names that do not exist yet, by
-    their resolved path. Standard output is compared too: ``> part.nc`` onto the input has
-    emptied it before postproc runs, and nothing written then could bring it back.
+    their resolved path. Standard input and output are compared too when they are files:
+    ``>> part.nc`` onto the input would add to it, and ``-o part.nc < part.nc`` replace it.
     """
-    read = [(option, path, _identity(path)) for option, path in inputs if path and path != STDOUT]
+    read = [(option, path, _identity(path) if path != STDOUT else _descriptor_identity(sys.stdin))
+            for option, path in inputs if path]
     seen: list[tuple[str, str, object]] = []
     for option, path in outputs:
         if not path:
             continue
         if path == STDOUT:
-            key = _stdout_identity()
-            if key is None:
-                continue
+            key = _descriptor_identity(sys.stdout) or "standard output"
         else:
             key = _identity(path) or ("new", os.path.realpath(path))
         for other, name, identity in read:
             if identity is not None and identity == key:
                 shown = "standard output" if path == STDOUT else f"{option} {path}"
-                raise UsageError(f"{shown} is the input {name} ({other}): it would be destroyed; write the output "
+                source = "standard input" if name == STDOUT else f"the input {name}"
+                raise UsageError(f"{shown} is {source} ({other}): it would be destroyed; write the output "
                                  "elsewhere (nothing was written)")
         for other, name, identity in seen:
             if identity == key:
@@ -326,9 +329,10 @@ def refuse_overwrite(inputs: Iterable[tuple[str, str]], outputs: Iterable[tuple[
         seen.append((option, path, key))
 
 
-def _stdout_identity() -> tuple[int, int] | None:
+def _descriptor_identity(stream) -> tuple[int, int] | None:
+    """The file behind standard input or output when it is a regular file (a redirection)."""
     try:
-        info = os.fstat(sys.stdout.fileno())
+        info = os.fstat(stream.fileno())
     except (AttributeError, OSError, ValueError):  # no real descriptor (a test runner's capture, a closed stdout)
         return None
     return (info.st_dev, info.st_ino) if stat.S_ISREG(info.st_mode) else None

@@ -106,9 +106,9 @@ def test_jobs_are_capped_at_the_programs_and_cpus_and_say_so(run, tmp_path):
     cpus = len(os.sched_getaffinity(0))
     result = run("compensate", *map(str, programs), "--out-dir", str(tmp_path), "--jobs", "64")
     assert result.exit_code == 0, result.stderr
-    workers = min(2, cpus)
-    assert result.stderr.splitlines()[0] == (f"postproc: warning: --jobs 64: {workers} processes run (2 programs, "
-                                             f"{cpus} CPUs)")
+    runs = "1 process runs" if cpus == 1 else "2 processes run"
+    assert result.stderr.splitlines()[0] == (f"postproc: warning: --jobs 64: {runs} (2 programs, {cpus} "
+                                             f"CPU{'s' * (cpus != 1)})")
     absurd = run("compensate", *map(str, programs), "--out-dir", str(tmp_path / "x"), "--jobs", "100000")
     assert absurd.exit_code == 2 and not (tmp_path / "x").exists()
     assert run("compensate", *map(str, programs), "--out-dir", str(tmp_path), "--jobs", "0").exit_code == 2

@@ -230,7 +230,7 @@ def test_a_wear_offset_is_written_as_g10_with_the_controls_signs_and_the_path_is
     text = ok(*base).stdout
     # 20 um too big in radius: on the diameter; 12 um short in Z: Z+0.012
     assert "\nG10 P1 X-0.040 Z0.012\n" in text
-    provenance = ("(POSTPROC", "(PLUGIN", "(INPUT", "(TOLERANCE", "(LARGEST", "(BLOCKS", "G10 ")
+    provenance = ("(POSTPROC", "(PLUGIN", "(OPTION", "(INPUT", "(TOLERANCE", "(MACHINE", "(LARGEST", "(BLOCKS", "G10 ")
     body = [line for line in text.splitlines() if not line.startswith(provenance)]
     assert body == Path(HEMISHELL).read_text().splitlines()
     assert "(BLOCKS REPLACED 0 BY 0)" in text
