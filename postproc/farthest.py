@@ -7,13 +7,15 @@ correction plus the tolerance. It is what refuses, whatever went wrong before it
 written as its chord (``--tolerance 20``), a connecting move to a wrong point, or a plan that
 wandered off.
 
-It must be cheap (it runs on every replaced block), so it is exact rather than sampled: the
-distance from a line or an arc to a line or an arc is largest at an end of the cut, where
-the cut passes closest to or farthest from a point of the nominal (its centre, its ends), where
-it runs parallel to a nominal line, or where it crosses from beside the nominal segment to
-beyond one of its ends. Those few places are computed in closed form and the distance is
-measured there; a spiral arc (end radius differing from the start within the control's radius
-check) is located as its circle and measured as the spiral it is.
+It must be cheap (it runs on every replaced block), so it is computed, not sampled. The
+distance from a line or an arc to a line or an arc is largest at an end of the cut, where the
+cut passes closest to or farthest from a point of the nominal (its centre, its ends), where it
+runs parallel to a nominal line, or where it crosses from beside the nominal segment to beyond
+one of its ends: :func:`farthest` finds those few places in closed form and measures there (a
+spiral arc, its end radius differing from its start within the control's radius check, is
+located as its circle and measured as the spiral it is). :func:`within` first tries a bound
+that takes a handful of operations for the usual case, a cut that follows a nominal arc
+inside its sweep, and measures exactly only when the bound does not settle it.
 """
 
 from __future__ import annotations
@@ -22,6 +24,8 @@ import math
 
 from .geometry import TAU, Line, Segment
 from .segmenter import Cut
+
+SLIVER = 0.01  #: radians: how far beyond a nominal arc's end the quick bound still reaches
 
 
 def farthest(cut: Cut, nominal: Segment) -> float:
@@ -33,6 +37,27 @@ def farthest(cut: Cut, nominal: Segment) -> float:
     else:
         points = _arc_points(cut, nominal)
     return max([_distance(x, z, nominal) for x, z in points])
+
+
+def within(cut: Cut, nominal: Segment, allowed: float) -> bool:
+    """Whether no point of ``cut`` lies further than ``allowed`` from the nominal segment: a
+    bound settles it in a few operations where it can (a cut along an arc, inside the arc's
+    sweep), the exact :func:`farthest` where it cannot."""
+    if cut.xc is None and type(nominal) is Line:  # the distance from a segment is convex: largest at an end
+        ax, az = nominal.x0, nominal.z0
+        dx, dz = nominal.x1 - ax, nominal.z1 - az
+        length2 = dx * dx + dz * dz
+        for px, pz in ((cut.x0, cut.z0), (cut.x1, cut.z1)):
+            t = 0.0 if length2 == 0.0 else ((px - ax) * dx + (pz - az) * dz) / length2
+            t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+            if math.hypot(px - ax - t * dx, pz - az - t * dz) > allowed:
+                return False
+        return True
+    if type(nominal) is not Line:
+        bound = _along_arc(cut, nominal)
+        if bound is not None and bound <= allowed:
+            return True
+    return farthest(cut, nominal) <= allowed
 
 
 # ---------------------------------------------------------------------- distance from the nominal
@@ -71,6 +96,66 @@ def _boundaries(nominal: Segment) -> list[tuple[tuple[float, float], tuple[float
     if (sx, sz) != (ex, ez):
         rays.append((((sx + ex) / 2.0, (sz + ez) / 2.0), (sz - ez, ex - sx)))
     return rays
+
+
+def _inside(arc, px: float, pz: float) -> float:
+    """The parameter of a point's angle along an arc's sweep: beyond [0, 1] outside it, on the
+    nearer side (as ``Arc.param_of``)."""
+    span = abs(arc.sweep)
+    sign = 1.0 if arc.sweep >= 0 else -1.0
+    along = (sign * (math.atan2(pz - arc.zc, px - arc.xc) - arc.theta0)) % TAU
+    if along > span and along - span > TAU - along:
+        along -= TAU
+    return along / span
+
+
+def _along_arc(cut: Cut, arc) -> float | None:
+    """A bound on the distance of a cut from a nominal arc when the cut lies within the arc's
+    sweep seen from its centre (or beyond an end by a sliver: a corrected point moves along the
+    arc too), where the distance is the radial one; else None.
+
+    A line from A to B stays in the wedge between them when that wedge is under half a turn;
+    an arc about a centre w nearer the nominal centre c than its radius turns about c one way
+    only, from A's angle to B's when its own turn is about as far (not a full turn more). Inside,
+    the distance from the arc is at most the farthest the cut gets from c beyond the radius, or
+    the nearest short of it; a point beyond an end by the angle e is at most that plus the arc
+    length e from the end."""
+    span = abs(arc.sweep)
+    if not 0.0 < span < TAU:
+        return None
+    ta, tb = _inside(arc, cut.x0, cut.z0), _inside(arc, cut.x1, cut.z1)
+    beyond = max(0.0, -ta, -tb, ta - 1.0, tb - 1.0) * span
+    if beyond > SLIVER:
+        return None
+    low, high = (arc.r, arc.r) if arc.r1 is None else (min(arc.r, arc.r1), max(arc.r, arc.r1))
+    cx, cz = arc.xc, arc.zc
+    if cut.xc is None:
+        if abs(ta - tb) * span >= math.pi:
+            return None
+        dx, dz = cut.x1 - cut.x0, cut.z1 - cut.z0
+        length2 = dx * dx + dz * dz
+        s = 0.0 if length2 == 0.0 else min(1.0, max(0.0, ((cx - cut.x0) * dx + (cz - cut.z0) * dz) / length2))
+        nearest = math.hypot(cut.x0 + s * dx - cx, cut.z0 + s * dz - cz)
+        reach = max(math.hypot(cut.x0 - cx, cut.z0 - cz), math.hypot(cut.x1 - cx, cut.z1 - cz))
+    else:
+        if not ta <= tb or bool(cut.cw) != (arc.sweep > 0):
+            return None
+        a0, sweep, r0, r1 = _spiral(cut)
+        wx, wz = cut.xc, cut.zc
+        if math.hypot(wx - cx, wz - cz) >= min(r0, r1) or abs(abs(sweep) - (tb - ta) * span) >= math.pi / 2:
+            return None  # the cut turns about c otherwise than from A's angle to B's
+        # on the cut's circle (radius r0), the distance from c is extreme at the ends and where
+        # the radius points at c or away from it; a spiral strays from that circle by |r1 - r0|
+        gaps = [math.hypot(cut.x0 - cx, cut.z0 - cz), math.hypot(cut.x1 - cx, cut.z1 - cz)]
+        towards = math.atan2(cz - wz, cx - wx)
+        sign = 1.0 if sweep >= 0 else -1.0
+        for phi in (towards, towards + math.pi):
+            if (sign * (phi - a0)) % TAU < abs(sweep):
+                gaps.append(math.hypot(wx + r0 * math.cos(phi) - cx, wz + r0 * math.sin(phi) - cz))
+        drift = abs(r1 - r0)
+        nearest, reach = min(gaps) - drift, max(gaps) + drift
+    radial = max(reach - low, high - nearest, 0.0)
+    return radial + beyond * (reach + radial)
 
 
 # ---------------------------------------------------------------------- the places on a line cut

@@ -35,7 +35,7 @@ from .blocks import Block
 from .diagnostics import Location, PostprocError, Reporter, SafetyError
 from .bounds import MAX_TOLERANCE
 from .emitter import Style, Writer, with_motion_code
-from .farthest import farthest
+from .farthest import farthest, within
 from .geometry import TAU, Arc, Line, segment_of
 from .interpreter import Interpreter
 from .motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
@@ -236,6 +236,7 @@ class Rewriter:
         self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
         self._checker: Interpreter | None = None  # reads replacements back (the self-check)
         self._grids: dict[bool, Grid] = {}  # by inch
+        self._allowances: dict[bool, tuple[float, float]] = {}  # for the last check, by inch
         self._limits: dict[tuple[float, bool], Limits] = {}  # by tolerance and inch
 
     # ------------------------------------------------------------------ streaming
@@ -463,6 +464,16 @@ class Rewriter:
             grid = self._grids[inch] = Grid(settings.decimals_inch if inch else settings.decimals_mm, inch,
                                             settings.diameter)
         return grid
+
+    def _allowance(self, step: Step) -> tuple[float, float]:
+        """The tolerance the last check counts (at most MAX_TOLERANCE) and one output step in mm
+        (the larger of X's, a radius, and Z's), by the program's units."""
+        inch = step.modal.inch
+        found = self._allowances.get(inch)
+        if found is None:
+            grid = self._grid(step)
+            found = self._allowances[inch] = (min(self._tolerance(step), MAX_TOLERANCE), max(grid.x_step, grid.z_step))
+        return found
 
     def _tolerance(self, step: Step) -> float:
         if self.settings.tolerance is not None:
@@ -734,18 +745,20 @@ class Rewriter:
         at most :data:`bounds.MAX_TOLERANCE` here, a widened plan's at most twice that, and one
         output step is allowed for the rounding of connecting moves."""
         step = entry.step
-        nominal = [segment_of(move) for move in step.moves if move.known and move.kind in (LINE, ARC, RAPID)]
-        tolerance = min(self._tolerance(step), MAX_TOLERANCE)
-        for edit in entry.edits:
-            for planned in (edit.plans if edit is not None else ()):
-                if planned.widened:
-                    tolerance = max(tolerance, min(planned.deviation, 2.0 * tolerance))
-        grid = self._grid(step)
-        allowed = self.largest + tolerance + max(grid.x_step, grid.z_step)
+        tolerance, slack = self._allowance(step)
+        nominal = []
+        for move, edit in zip(step.moves, entry.edits or [None] * len(step.moves)):
+            if edit is not None:  # the pieces the targets were made of: the move itself
+                nominal += [target.nominal for target in edit.targets]
+                for planned in edit.plans:
+                    if planned.widened:
+                        tolerance = max(tolerance, min(planned.deviation, 2.0 * tolerance))
+            elif move.known and move.kind in (LINE, ARC, RAPID):
+                nominal.append(segment_of(move))
+        allowed = self.largest + tolerance + slack
         for cut in cuts:
-            distance = farthest(cut, nominal[0]) if len(nominal) == 1 else min([farthest(cut, segment)
-                                                                               for segment in nominal])
-            if distance > allowed:
+            if not any(within(cut, segment, allowed) for segment in nominal):
+                distance = min(farthest(cut, segment) for segment in nominal)
                 raise SafetyError(
                     f"the replacement would run {distance * 1000:.1f} um from the programmed path, more than the "
                     f"largest correction ({self.largest * 1000:.2f} um) plus the tolerance ({tolerance * 1000:.2f} um) "

@@ -4,6 +4,7 @@ computed in closed form, checked against dense sampling of both the cut and the 
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 from hypothesis import given, settings
@@ -72,3 +73,30 @@ def test_a_cut_beyond_the_nominal_end_is_measured_from_that_end():
     line = Line(0.0, 0.0, 10.0, 0.0)
     assert math.isclose(farthest(Cut(10.0, 0.0, 13.0, 4.0), line), 5.0)
     assert math.isclose(farthest(Cut(-3.0, 0.0, 5.0, 0.0), line), 3.0)
+
+
+@st.composite
+def cuts_along(draw, arc: Arc):
+    """A cut that follows an arc closely: a chord of part of it, or an arc about a nearby centre."""
+    a, b = sorted((draw(st.floats(-0.01, 1.01)), draw(st.floats(-0.01, 1.01))))  # a sliver beyond the ends too
+    start, end = arc.point_at(np.array([a, b])).tolist()
+    if draw(st.booleans()):
+        return Cut(*start, *end)
+    xc, zc = arc.xc + draw(st.floats(-0.05, 0.05)), arc.zc + draw(st.floats(-0.05, 0.05))
+    return Cut(*start, *end, xc, zc, arc.sweep > 0)
+
+
+@settings(max_examples=int(os.environ.get("POSTPROC_FUZZ_EXAMPLES", "300")), deadline=None)
+@given(st.data())
+def test_the_quick_bound_along_an_arc_is_never_below_the_exact_distance(data):
+    from postproc.farthest import _along_arc, within
+
+    arc = data.draw(nominals().filter(lambda n: isinstance(n, Arc)))
+    cut = data.draw(cuts_along(arc))
+    exact = farthest(cut, arc)
+    bound = _along_arc(cut, arc)
+    if bound is not None:
+        assert bound >= exact - 1e-9
+    assert within(cut, arc, exact + 1e-9)
+    if exact > 1e-9:
+        assert not within(cut, arc, exact - 1e-9)
