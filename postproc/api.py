@@ -24,7 +24,7 @@ from typing import Sequence
 from . import bounds
 from . import profile as profiles
 from .diagnostics import Diagnostic, Reporter
-from .output import KEEP, Spool
+from .output import KEEP, Spool, refuse_overwrite
 from .request import Request
 from .source import Source
 
@@ -97,7 +97,12 @@ class Pipeline:
         return Summary(source.name, rewriter.replaced, rewriter.emitted, rewriter.largest, rewriter.worst)
 
     def compensate_file(self, path: str, output: str) -> Summary:
-        """Compensate the program at ``path`` into ``output`` (``-`` for stdout), atomically."""
+        """Compensate the program at ``path`` into ``output`` (``-`` for stdout), atomically. An
+        output that is the program or one of the measurement files is refused (UsageError)."""
+        request = self.request
+        read = [("program", path), ("--calibration", request.calibration), ("--model", request.model)]
+        read += [("--ballbar", name) for name in request.ballbar] + [("--probe", name) for name in request.probe]
+        refuse_overwrite(read, [("output", output)])
         with Source(path) as source, Spool(output) as spool:
             summary = self.compensate_source(source, spool)
             spool.commit()

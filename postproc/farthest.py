@@ -184,14 +184,8 @@ def _line_points(cut: Cut, nominal: Segment) -> list[tuple[float, float]]:
 
 def _spiral(cut: Cut) -> tuple[float, float, float, float]:
     """Start angle, signed sweep, start and end radius of an arc cut (as the control runs it)."""
-    r0 = math.hypot(cut.x0 - cut.xc, cut.z0 - cut.zc)
-    r1 = math.hypot(cut.x1 - cut.xc, cut.z1 - cut.zc)
-    a0 = math.atan2(cut.z0 - cut.zc, cut.x0 - cut.xc)
-    a1 = math.atan2(cut.z1 - cut.zc, cut.x1 - cut.xc)
-    sweep = (a1 - a0) % TAU if cut.cw else -((a0 - a1) % TAU)
-    if sweep == 0.0:
-        sweep = TAU if cut.cw else -TAU
-    return a0, sweep, r0, r1
+    r0, r1, sweep = cut._spiral()
+    return math.atan2(cut.z0 - cut.zc, cut.x0 - cut.xc), sweep, r0, r1
 
 
 def _arc_points(cut: Cut, nominal: Segment) -> list[tuple[float, float]]:

@@ -29,8 +29,8 @@ from .diagnostics import Location, PostprocError
 
 CHUNK = 1 << 20
 
-_session: contextvars.ContextVar[dict[str, "Snapshot | PostprocError"] | None] = contextvars.ContextVar("postproc_inputs",
-                                                                                          default=None)
+#: the snapshots (or the errors) of the paths read in the current session; None outside one
+_session: contextvars.ContextVar[dict | None] = contextvars.ContextVar("postproc_inputs", default=None)
 
 
 @dataclass(frozen=True)

@@ -280,10 +280,16 @@ PROFILES = [
 def test_bad_machine_profiles(run, tmp_path, name, text, message):
     machine = tmp_path / "m.toml"
     machine.write_text(text + "\n")
-    result = run("compensate", HEMISHELL, "--machine", str(machine), "-o", str(tmp_path / "out.nc"))
+    _refused(run, tmp_path, ["--machine", str(machine)], f"{machine}{message}")
+
+
+def _refused(run, tmp_path, args: list[str], first_line: str) -> None:
+    """compensate with these options: exit 3, this first line on stderr, nothing written."""
+    target = tmp_path / "out.nc"
+    result = run("compensate", HEMISHELL, *args, "-o", str(target))
     assert (result.exit_code, result.stdout_bytes) == (3, b"")
-    assert result.stderr.splitlines()[0] == f"{machine}{message}"
-    assert not (tmp_path / "out.nc").exists()
+    assert result.stderr.splitlines()[0] == first_line
+    assert not target.exists()
 
 
 def test_models_from_another_version_or_tampered(run, tmp_path):
@@ -370,10 +376,7 @@ def test_bad_models(run, tmp_path, name, change, message):
         literal = {"5000": "1" * 5000, "nan": "NaN", "inf": "Infinity"}[change]
         text = _resigned(data).replace('"radius_mm": 100.0', f'"radius_mm": {literal}')
     model.write_text(text)
-    result = run("compensate", HEMISHELL, "--model", str(model), "-o", str(tmp_path / "out.nc"))
-    assert (result.exit_code, result.stdout_bytes) == (3, b"")
-    assert result.stderr.splitlines()[0] == f"{model}: error: {message}"
-    assert not (tmp_path / "out.nc").exists()
+    _refused(run, tmp_path, ["--model", str(model)], f"{model}: error: {message}")
 
 
 def test_a_saved_trace_is_held_to_what_a_trace_file_is(run, tmp_path):

@@ -235,3 +235,12 @@ def test_two_programs_of_one_name_into_one_folder_are_refused(run, part, tmp_pat
 def test_stdin_has_no_name_for_out_dir(run, tmp_path):
     result = run("compensate", "-", "--out-dir", str(tmp_path / "o"), input=HEMISHELL.read_bytes())
     assert result.exit_code == 2 and "standard input (-) has none: give -o" in result.stderr
+
+
+def test_the_python_api_refuses_an_output_that_is_its_input(part):
+    import postproc
+    from postproc.diagnostics import UsageError
+
+    with pytest.raises(UsageError, match="it would be destroyed"):
+        postproc.Pipeline().compensate_file(str(part), str(part))
+    assert part.read_bytes() == HEMISHELL.read_bytes()

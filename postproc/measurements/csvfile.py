@@ -3,8 +3,9 @@
 A magic line, ``# key = value`` header lines, one CSV header row, then data rows. Unknown
 header keys are refused (a misspelt optional key must not fall back to its default) except
 ``x-`` keys, which are kept. Every format takes the optional key ``measured``: when the
-measurement was taken, ISO 8601 with a time zone (a saved model records it). Every problem is a MeasurementError in the fixed message forms:
-``FILE:LINE: error:`` for a header line or data row, ``FILE: error:`` for the whole file.
+measurement was taken, ISO 8601 with a time zone (a saved model records it). Every problem is
+a MeasurementError in the fixed message forms: ``FILE:LINE: error:`` for a header line or data
+row, ``FILE: error:`` for the whole file.
 """
 
 from __future__ import annotations
