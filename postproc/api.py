@@ -21,9 +21,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Sequence
 
+from . import bounds
 from . import profile as profiles
-from .diagnostics import Diagnostic, OptionError, Reporter
-from .output import Spool
+from .diagnostics import Diagnostic, Reporter
+from .output import KEEP, Spool, refuse_overwrite
 from .request import Request
 from .source import Source
 
@@ -62,10 +63,6 @@ class Pipeline:
         reporter: Reporter | None = None,
         keep_unplannable: bool = False,
     ):
-        if tolerance is not None and not tolerance > 0:
-            raise OptionError(f"--tolerance {tolerance}: the tolerance must be positive")
-        if max_correction is not None and not max_correction > 0:
-            raise OptionError(f"--max-correction {max_correction}: must be positive")
         from .region import Region
 
         Region(list(regions))  # refuse a bad region before anything is read
@@ -73,6 +70,7 @@ class Pipeline:
         if isinstance(machine, str):
             machine = profiles.load(machine)
         self.profile = machine or profiles.DEFAULT
+        bounds.in_force(tolerance, max_correction, self.profile)
         self.reporter = reporter or Reporter()
         self.request = Request(list(plugins), list(ballbar), list(probe), calibration, model, list(options), tolerance,
                                mode, max_correction, force, list(regions), keep_unplannable)
@@ -100,7 +98,12 @@ class Pipeline:
         return Summary(source.name, rewriter.replaced, rewriter.emitted, rewriter.largest, rewriter.worst)
 
     def compensate_file(self, path: str, output: str) -> Summary:
-        """Compensate the program at ``path`` into ``output`` (``-`` for stdout), atomically."""
+        """Compensate the program at ``path`` into ``output`` (``-`` for stdout), atomically. An
+        output that is the program or one of the measurement files is refused (UsageError)."""
+        request = self.request
+        read = [("program", path), ("--calibration", request.calibration), ("--model", request.model)]
+        read += [("--ballbar", name) for name in request.ballbar] + [("--probe", name) for name in request.probe]
+        refuse_overwrite(read, [("output", output)])
         with Source(path) as source, Spool(output) as spool:
             summary = self.compensate_source(source, spool)
             spool.commit()
@@ -112,20 +115,10 @@ class Pipeline:
             return self.compensated(source).decode("utf-8", "surrogateescape")
 
     def compensated(self, source: Source) -> bytes:
-        """The compensated program, by way of a temporary file (the spool commits to a path)."""
-        import os
-        import tempfile
-
-        handle, path = tempfile.mkstemp(prefix="postproc-", suffix=".nc")
-        os.close(handle)
-        try:
-            with Spool(path) as spool:
-                self.compensate_source(source, spool)
-                spool.commit()
-            with open(path, "rb") as result:
-                return result.read()
-        finally:
-            os.unlink(path)
+        """The compensated program, as bytes (spooled in an anonymous file while it is made)."""
+        with Spool(KEEP) as spool:
+            self.compensate_source(source, spool)
+            return spool.value()
 
 
 def compensate_text(text: str, name: str = "<text>", **options) -> str:

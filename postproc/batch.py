@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 from .api import Pipeline
@@ -51,17 +51,19 @@ def run(jobs: list[tuple[str, str]], pipeline: Pipeline, workers: int = 1) -> in
     """Compensate each (input, destination); returns the exit code for the whole run.
 
     The pipeline is built (and its measurements checked) once, before any program is read;
-    forked workers inherit it.
+    forked workers inherit it. Interrupted (Ctrl-C, SIGTERM), the workers are stopped at once,
+    each leaving nothing behind (its spool has no name), and the interruption goes on up.
     """
     global _pipeline
     _pipeline = pipeline
     progress = sys.stderr.isatty() and len(jobs) > 1
     outcomes: list[Outcome] = []
+    pool = None
     if workers <= 1:
         results = map(_one, jobs)
     else:
-        pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork"))
-        results = pool.map(_one, jobs)
+        pool = multiprocessing.get_context("fork").Pool(workers, initializer=_worker)
+        results = pool.imap(_one, jobs)
     try:
         for done, outcome in enumerate(results, 1):
             if progress:
@@ -73,10 +75,22 @@ def run(jobs: list[tuple[str, str]], pipeline: Pipeline, workers: int = 1) -> in
                 sys.stderr.write(f"[{done}/{len(jobs)}] {os.path.basename(outcome.name)}")
                 sys.stderr.flush()
             outcomes.append(outcome)
-    finally:
-        if workers > 1:
-            pool.shutdown()
+    except BaseException:
+        if pool is not None:
+            pool.terminate()
+            pool.join()
+        raise
+    if pool is not None:
+        pool.close()
+        pool.join()
     failed = [o for o in outcomes if o.code != EXIT_OK]
     if failed and len(jobs) > 1:
         print(f"postproc: {len(failed)} of {len(jobs)} programs failed", file=sys.stderr)
     return max((o.code for o in failed), default=EXIT_OK)
+
+
+def _worker() -> None:
+    """A worker leaves Ctrl-C to the parent (which stops every worker) and dies at once on SIGTERM."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)

@@ -36,10 +36,12 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from dataclasses import dataclass
 
+from . import inputs
 from .diagnostics import Location, MeasurementError
+
+MAX_BYTES = 1024 * 1024  #: an error budget is a page of text
 
 AXES = ("x", "y", "z")
 DISTRIBUTIONS = ("gaussian", "uniform", "sinusoidal")
@@ -225,21 +227,7 @@ def _source(file: _File, number: int, table, travel: dict[str, float] | None, si
 
 def read_budget(path: str) -> Budget:
     """Read and check an error budget file (TOML)."""
-    try:
-        with open(path, "rb") as handle:
-            data = handle.read()
-    except OSError as exc:
-        raise MeasurementError(f"cannot read the file: {exc.strerror}", Location(path)) from None
-    try:
-        text = data.decode("utf-8")
-        document = tomllib.loads(text)
-    except UnicodeDecodeError:
-        raise MeasurementError("the file is not UTF-8 text", Location(path)) from None
-    except tomllib.TOMLDecodeError as exc:
-        found = re.search(r"\(at line (\d+)", str(exc))
-        message = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
-        line = int(found.group(1)) if found else None
-        raise MeasurementError(f"not valid TOML: {message}", Location(path, line)) from None
+    document, text = inputs.read_toml(path, MAX_BYTES, MeasurementError, "an error budget")
     file = _File(path, text)
     _unknown(file, document, TOP_KEYS, "at the top of the budget")
     name = document.get("name", path)

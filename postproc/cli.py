@@ -9,31 +9,53 @@ from __future__ import annotations
 
 import functools
 import os
+import signal
 import sys
 
 import click
 
 from . import __version__
 from . import profile as profiles
-from .diagnostics import EXIT_INTERNAL, EXIT_WOULD_CHANGE, PostprocError, Reporter, UsageError
+from .commands.common import FINITE, LOG, guard
+from .diagnostics import (EXIT_INTERNAL, EXIT_WOULD_CHANGE, Location, PostprocError, Reporter, UsageError,
+                          format_message)
 from .output import STDOUT, Spool
 from .source import Source
 
+EXIT_INTERRUPTED = 128 + signal.SIGINT  #: 130: Ctrl-C, as the shell reports a program it stopped
+EXIT_BROKEN_PIPE = 128 + signal.SIGPIPE  #: 141: the reader of stdout went away
+MAX_JOBS = 1024  #: more processes than any machine runs at once: a typo, refused
+
+
+class Stopped(BaseException):
+    """A signal that ends the run (SIGTERM, SIGHUP): raised where the program is, so that every
+    spool and temporary file is dropped on the way out. A BaseException, as KeyboardInterrupt
+    is, so that no ``except Exception`` in a plugin swallows it."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _stop(signum, frame):
+    raise Stopped(signum)
+
 
 def _reported(command):
-    """Run a command; a PostprocError becomes its message and exit code."""
+    """Run a command, each of its inputs read once; a PostprocError becomes its message and exit code."""
 
     @functools.wraps(command)
     def wrapper(*args, **kwargs):
+        from .inputs import session
+
         try:
-            return command(*args, **kwargs)
+            with session():  # each input read once, whoever needs it again
+                return command(*args, **kwargs)
         except PostprocError as exc:
             click.echo(str(exc), err=True)
             sys.exit(exc.exit_code)
-        except (KeyboardInterrupt, click.exceptions.Exit, click.ClickException):
+        except (click.exceptions.Exit, click.ClickException, BrokenPipeError):  # a closed pipe: ends quietly
             raise
-        except BrokenPipeError:
-            sys.exit(EXIT_INTERNAL)
         except Exception as exc:  # a bug: say so in one line, keep the traceback for debugging
             if os.environ.get("POSTPROC_DEBUG"):
                 raise
@@ -74,6 +96,22 @@ class _Commands(click.Group):
     def list_commands(self, ctx):
         return sorted(set(super().list_commands(ctx)) | set(self.modules))
 
+    def invoke(self, ctx):
+        """Run the command; end as the shell expects on Ctrl-C (130), on SIGTERM or SIGHUP
+        (128 + the signal) and when the reader of stdout has gone (141, quietly)."""
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            click.echo("postproc: interrupted; no file was left half-written", err=True)
+            sys.exit(EXIT_INTERRUPTED)
+        except Stopped as stop:
+            click.echo(f"postproc: stopped by {signal.Signals(stop.signum).name}; no file was left half-written",
+                       err=True)
+            sys.exit(128 + stop.signum)
+        except BrokenPipeError:
+            _quiet_stdout()
+            sys.exit(EXIT_BROKEN_PIPE)
+
     def get_command(self, ctx, name):
         if name in self.modules and name not in self.commands:
             import importlib
@@ -84,6 +122,14 @@ class _Commands(click.Group):
         return super().get_command(ctx, name)
 
 
+def _quiet_stdout() -> None:
+    """Point stdout at /dev/null, so that the interpreter's last flush into a closed pipe says nothing."""
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except (AttributeError, OSError, ValueError):  # no real descriptor (a test runner's capture)
+        pass
+
+
 class _Tee:
     """stderr that also goes to a log file (for CAM systems that do not show stderr)."""
 
@@ -91,9 +137,24 @@ class _Tee:
         self.stream, self.log = stream, log
 
     def write(self, text: str) -> int:
-        self.log.write(text)
-        self.log.flush()
+        if self.log is not None:
+            try:
+                self.log.write(text)
+                self.log.flush()
+            except OSError as exc:  # a full disk under the log must not lose the message itself
+                self.detach_log()
+                self.stream.write(format_message("warning", f"--log: cannot write the log ({exc.strerror}); "
+                                                            "messages go to stderr only", None) + "\n")
         return self.stream.write(text)
+
+    def detach_log(self) -> None:
+        """Stop copying to the log (it turned out to be one of the run's inputs, or cannot be written)."""
+        log, self.log = self.log, None
+        if log is not None:
+            try:
+                log.close()
+            except OSError:
+                pass
 
     def flush(self) -> None:
         self.stream.flush()
@@ -105,13 +166,27 @@ class _Tee:
 @click.group(cls=_Commands, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="postproc")
 @click.option("--log", metavar="FILE", help="Copy every message to FILE (appended) as well as to stderr.")
-def main(log: str | None = None) -> None:
+@click.pass_context
+def main(ctx: click.Context, log: str | None = None) -> None:
     """Rewrite FANUC lathe part programs so that the next part is cut right."""
+    _catch(ctx, signal.SIGTERM)
+    _catch(ctx, signal.SIGHUP)
     if log:
         try:
             sys.stderr = _Tee(sys.stderr, open(log, "a", encoding="utf-8"))
         except OSError as exc:
             raise click.UsageError(f"--log {log}: {exc.strerror}") from None
+        ctx.meta[LOG] = log
+
+
+def _catch(ctx: click.Context, signum: int) -> None:
+    """Turn a signal into :class:`Stopped` for this run (the main thread only: signals go there)."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return
+    previous = signal.signal(signum, _stop)
+    ctx.call_on_close(lambda: signal.signal(signum, previous))
 
 
 @main.command()
@@ -124,12 +199,12 @@ def main(log: str | None = None) -> None:
 @click.option("--calibration", metavar="FILE", help="A probe calibration on an artifact.")
 @click.option("--model", metavar="FILE", help="A saved compensation model.")
 @click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
-@click.option("--tolerance", type=float, metavar="MM", help="Largest deviation of the emitted path.")
+@click.option("--tolerance", type=FINITE, metavar="MM", help="Largest deviation of the emitted path.")
 @click.option("--mode", type=click.Choice(["auto", "arc", "line"]), default="auto", show_default=True)
 @click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
 @click.option("--region", "regions", multiple=True, metavar="N100-N200|L10-L50|T01",
               help="Compensate only these blocks (several: their union).")
-@click.option("--max-correction", type=float, metavar="MM", help="Refuse corrections larger than this.")
+@click.option("--max-correction", type=FINITE, metavar="MM", help="Refuse corrections larger than this.")
 @click.option("--force", is_flag=True, help="Compensate a program compensated before; use a failed datum check.")
 @click.option("--keep-unplannable", is_flag=True,
               help="Leave a block that cannot be held within the tolerance uncompensated (a warning) instead of refusing.")
@@ -156,11 +231,20 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
         raise UsageError("--region was given but no compensator (--plugin) to compensate it")
     if (diff or check_only) and (output or out_dir):
         raise UsageError("--diff and --check write no program: give no -o or --out-dir")
+    destinations = _destinations(inputs, out_dir) if out_dir else []
+    read = [("INPUT", name) for name in inputs] + [("--ballbar", name) for name in ballbar] + \
+        [("--probe", name) for name in probe] + [("--calibration", calibration), ("--model", model),
+                                                 ("--machine", machine)]
+    written = [("-o", output or (STDOUT if not (out_dir or diff or check_only) else None))]
+    written += [("--out-dir", path) for _, path in destinations] + [("--report", report_file)]
+    guard(read, written)
+    workers = _workers(jobs, len(inputs)) if out_dir else 1
     reporter = Reporter(sys.stderr)
     pipeline = Pipeline(plugins, ballbar, probe, calibration, model, options, tolerance, mode, _profile(machine),
                         max_correction, force, regions, reporter, keep_unplannable=keep_unplannable)
     if diff or check_only:
         changed = [name for name in inputs if _review(pipeline, name, diff)]
+        _nothing_applied(pipeline, reporter, written=False)
         reporter.close()
         if report_file:
             _write_report(pipeline, report_file)
@@ -172,15 +256,19 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
     if out_dir:
         from . import batch
 
-        jobs_list = [(name, os.path.join(out_dir, os.path.basename(name))) for name in inputs]
-        code = batch.run(jobs_list, pipeline, jobs)
+        created = _make_directory(out_dir)
+        _nothing_applied(pipeline, reporter)
+        code = batch.run(destinations, pipeline, workers)
         reporter.close()
         if report_file:
             _write_report(pipeline, report_file)
         if code:
+            if created:
+                _remove_if_empty(out_dir)
             sys.exit(code)
         return
     summary = pipeline.compensate_file(inputs[0], output or STDOUT)
+    _nothing_applied(pipeline, reporter)
     reporter.close()
     if report_file:
         _write_report(pipeline, report_file)
@@ -191,6 +279,74 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
             f"{summary.largest_deviation * 1000:.3f} um",
             err=True,
         )
+
+
+def _nothing_applied(pipeline, reporter: Reporter, written: bool = True) -> None:
+    """With no compensator, say that the programs went out unchanged: in a script, an empty
+    $PLUGIN must not send an uncompensated part to the machine without a word."""
+    if pipeline.core is None:
+        reporter.warn("no compensator was given (--plugin or --model): nothing was applied"
+                      + ("; the program is written back unchanged" if written else ""))
+
+
+def _destinations(inputs: tuple[str, ...], out_dir: str) -> list[tuple[str, str]]:
+    """Each input and the file it is written to in ``out_dir``; two inputs of one name are refused,
+    as is standard input, which has no name to write under."""
+    if "-" in inputs:
+        raise UsageError("--out-dir writes each program under its own name; standard input (-) has none: give -o")
+    firsts: dict[str, str] = {}
+    for name in inputs:
+        base = os.path.basename(name)
+        if base in firsts:
+            raise UsageError(f"{firsts[base]} and {name} have the same name: in --out-dir {out_dir} one would "
+                             "overwrite the other; compensate them into different folders")
+        firsts[base] = name
+    return [(name, os.path.join(out_dir, os.path.basename(name))) for name in inputs]
+
+
+def _workers(jobs: int, programs: int) -> int:
+    """``--jobs``, at most one process per program and per CPU (saying so when fewer run)."""
+    if jobs > MAX_JOBS:
+        raise UsageError(f"--jobs {jobs}: far more processes than a machine runs at once (at most {MAX_JOBS}); "
+                         "give about the number of CPUs")
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cpus = os.cpu_count() or 1
+    workers = max(1, min(jobs, programs, cpus))
+    if workers < jobs:
+        runs = "1 process runs" if workers == 1 else f"{workers} processes run"
+        counted = f"{programs} program{'s' * (programs != 1)}, {cpus} CPU{'s' * (cpus != 1)}"
+        click.echo(format_message("warning", f"--jobs {jobs}: {runs} ({counted})", None), err=True)
+    return workers
+
+
+def _make_directory(path: str) -> bool:
+    """Create ``--out-dir`` (and its parents) if it does not exist, as ``mkdir -p`` does; whether it
+    was created. A file where the folder should be is refused."""
+    if os.path.isdir(path):
+        return False
+    if os.path.lexists(path):
+        raise UsageError(f"--out-dir {path}: exists and is not a directory; give a folder")
+    try:
+        os.makedirs(path)
+    except FileExistsError:
+        if not os.path.isdir(path):
+            raise UsageError(f"--out-dir {path}: exists and is not a directory; give a folder") from None
+        return False
+    except OSError as exc:
+        from .output import OutputError, explain
+
+        raise OutputError(f"cannot create the output folder: {explain(exc)}", Location(path)) from None
+    return True
+
+
+def _remove_if_empty(path: str) -> None:
+    """Take away the folder this run created when no program was written into it."""
+    try:
+        os.rmdir(path)
+    except OSError:
+        pass
 
 
 def _write_report(pipeline, path: str) -> None:
@@ -246,6 +402,8 @@ def fit(plugins, ballbar, probe, calibration, options, machine, note, force, out
     from .pipeline import Pipeline
     from .request import Request
 
+    guard([("--ballbar", name) for name in ballbar] + [("--probe", name) for name in probe]
+          + [("--calibration", calibration), ("--machine", machine)], [("-o", output)])
     reporter = Reporter(sys.stderr)
     request = Request(list(plugins), list(ballbar), list(probe), calibration, None, list(options), force=force)
     pipeline = Pipeline(request, _profile(machine), reporter)
@@ -261,6 +419,7 @@ def check(input, machine):
     """Parse and interpret a program: diagnostics only, no output program."""
     from .program import tally_source
 
+    guard([("INPUT", input), ("--machine", machine)], [])
     reporter = Reporter(sys.stderr)
     with Source(input) as source:
         blocks, moves = tally_source(source, _profile(machine), reporter)
@@ -280,7 +439,7 @@ def check(input, machine):
 @click.option("--calibration", metavar="FILE")
 @click.option("--model", metavar="FILE")
 @click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
-@click.option("--tolerance", type=float, metavar="MM")
+@click.option("--tolerance", type=FINITE, metavar="MM")
 @click.option("--mode", type=click.Choice(["auto", "arc", "line"]), default="auto")
 @_reported
 def path(input, machine, output, plot, plugins, ballbar, probe, calibration, model, options, tolerance, mode):
@@ -288,29 +447,33 @@ def path(input, machine, output, plot, plugins, ballbar, probe, calibration, mod
     from .pathcsv import path_rows
     from .program import interpret_source
 
-    profile = _profile(machine)
-    reporter = Reporter(sys.stderr)
     if (plugins or model) and not plot:
         raise UsageError("compensators here only draw the compensated path: give --plot")
-    with Source(input) as source:
-        with Spool(output or STDOUT) as spool:
-            for line in path_rows(interpret_source(source, profile, reporter)):
-                spool.write(line.encode() + b"\n")
-            spool.commit()
+    guard([("INPUT", input), ("--machine", machine), ("--model", model), ("--calibration", calibration)]
+          + [("--ballbar", name) for name in ballbar] + [("--probe", name) for name in probe],
+          [("-o", output or STDOUT), ("--plot", plot)])
+    profile = _profile(machine)
+    reporter = Reporter(sys.stderr)
+    pipeline = None
+    if plugins or model:  # the measurements checked before anything is written
+        from .api import Pipeline
+
+        pipeline = Pipeline(plugins, ballbar, probe, calibration, model, options, tolerance, mode, profile,
+                            reporter=reporter)
+    with Source(input) as source, Spool(output or STDOUT) as spool:
+        for line in path_rows(interpret_source(source, profile, reporter)):
+            spool.write(line.encode() + b"\n")
         if plot:
-            from .api import Pipeline
             from .pathplot import plot_paths
 
             nominal = [m for s in interpret_source(source, profile, Reporter()) for m in s.moves if m.role != "contour"]
             compensated = None
-            if plugins or model:
-                pipeline = Pipeline(plugins, ballbar, probe, calibration, model, options, tolerance, mode, profile,
-                                    reporter=reporter)
-                text = pipeline.compensate_text(source.read_bytes().decode("utf-8", "surrogateescape"), source.name)
-                with Source.from_text(text, source.name) as changed:
+            if pipeline is not None:
+                with Source.from_text(pipeline.compensated(source), source.name) as changed:
                     compensated = [m for s in interpret_source(changed, profile, Reporter()) for m in s.moves
                                    if m.role != "contour"]
             plot_paths(nominal, compensated, plot, source.name)
+        spool.commit()
     reporter.close()
 
 

@@ -10,13 +10,14 @@ the sum with the segmenter and writes the blocks. A compensator never touches a 
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Iterable, Sequence
 
 import numpy as np
 
-from .diagnostics import OptionError, Reporter
+from .diagnostics import Location, ModelError, OptionError, Reporter
 from .motion import Move
 from .profile import DEFAULT, MachineProfile
 from .rewrite import Piece
@@ -55,6 +56,29 @@ class Option:
         if self.choices and text not in self.choices:
             raise OptionError(f"{where}: expected one of {', '.join(self.choices)}")
         return text
+
+    def check(self, value: Any, where: Location) -> Any:
+        """A value saved in a model (JSON), held to the rules :meth:`parse` holds text to."""
+        name = f"options.{self.key} = {json.dumps(value)}"
+        if value is None:
+            if self.default is None:
+                return None
+            raise ModelError(f"{name}: the option has a value when it is given", where)
+        if self.kind is bool:
+            if not isinstance(value, bool):
+                raise ModelError(f"{name}: expected true or false", where)
+            return value
+        if self.kind in (float, int):
+            number = isinstance(value, (int, float)) and not isinstance(value, bool)
+            if not number or (self.kind is int and not isinstance(value, int)) or not math.isfinite(value) or (
+                    self.positive and value <= 0):
+                kind = "whole number" if self.kind is int else "number"
+                raise ModelError(f"{name}: expected a {'positive ' if self.positive else ''}finite {kind}", where)
+            return self.kind(value)
+        if not isinstance(value, str) or (self.choices and value not in self.choices):
+            expected = f"one of {', '.join(self.choices)}" if self.choices else "a string"
+            raise ModelError(f"{name}: expected {expected}", where)
+        return value
 
 
 @dataclass
@@ -140,6 +164,19 @@ class Compensator:
     def report(self) -> dict[str, Any]:
         """What was fitted and how well, for reports and for stderr."""
         return {}
+
+
+def check_options(values: dict[str, Any], compensator: type["Compensator"], where: Location) -> dict[str, Any]:
+    """The options saved in a model, checked against what its compensator declares: an unknown
+    key or a wrong value is refused, as on the command line."""
+    declared = {option.key: option for option in compensator.options}
+    checked = {}
+    for key, value in values.items():
+        if key not in declared:
+            known = ", ".join(sorted(declared)) or "none"
+            raise ModelError(f"options.{key}: {compensator.name} declares no such option (it declares: {known})", where)
+        checked[key] = declared[key].check(value, where)
+    return checked
 
 
 def parse_options(texts: Iterable[str], compensators: list[type[Compensator]]) -> dict[str, dict[str, Any]]:

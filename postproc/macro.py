@@ -28,6 +28,7 @@ class _Unknown:
 
 
 UNKNOWN = _Unknown()
+MAX_VALUE = 1e47  #: the largest magnitude a macro variable holds (FANUC)
 VACANT = None  #: a variable with no value (FANUC ``<vacant>``)
 
 
@@ -172,7 +173,7 @@ def evaluate(expr: Expr, variables: Mapping[int, "float | None"]) -> "float | No
     """
     kind = type(expr)
     if kind is Number:
-        return expr.value
+        return _in_range(expr.value)
     if kind is Variable:
         if expr.name is not None:
             return UNKNOWN
@@ -201,7 +202,7 @@ def evaluate(expr: Expr, variables: Mapping[int, "float | None"]) -> "float | No
         right = evaluate(expr.right, variables)
         if left is UNKNOWN or right is UNKNOWN:
             return UNKNOWN
-        return _binary(expr.op, _number(left), _number(right))
+        return _in_range(_binary(expr.op, _number(left), _number(right)))
     if kind is Call:
         args = [evaluate(arg, variables) for arg in expr.args]
         if any(arg is UNKNOWN for arg in args):
@@ -210,10 +211,17 @@ def evaluate(expr: Expr, variables: Mapping[int, "float | None"]) -> "float | No
         if function is None:
             raise MacroValueError(f"{expr.function} is not a function the interpreter evaluates")
         try:
-            return float(function(*[_number(arg) for arg in args]))
+            return _in_range(float(function(*[_number(arg) for arg in args])))
         except (ValueError, TypeError, OverflowError) as exc:
             raise MacroValueError(f"{expr.function} of {args} cannot be evaluated ({exc})") from None
     raise TypeError(f"not an expression: {expr!r}")
+
+
+def _in_range(value: float) -> float:
+    """A value the control holds: within +-10^47, as a macro variable (else FANUC alarm PS0111)."""
+    if not abs(value) <= MAX_VALUE:
+        raise MacroValueError(f"calculated data overflow: {value:g} is beyond +-1e47 (FANUC alarm PS0111)")
+    return value
 
 
 def _compare(op: str, left: "float | None", right: "float | None") -> bool:

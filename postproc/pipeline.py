@@ -16,7 +16,6 @@ read in whatever units the control was left in. The header says what was added w
 
 from __future__ import annotations
 
-import hashlib
 import re
 import signal
 import tempfile
@@ -25,13 +24,13 @@ from typing import Any
 
 import numpy as np
 
-from . import __version__
+from . import __version__, bounds, inputs, models
 from . import gcodes as G
-from . import models
 from . import plugins as registry
-from .compensator import Compensator, Context, Measurements, parse_options
-from .diagnostics import (InternalError, Location, OptionError, PluginError, PostprocError, Reporter, SafetyError,
+from .compensator import Compensator, Context, Measurements, check_options, parse_options
+from .diagnostics import (InternalError, Location, ModelError, PluginError, PostprocError, Reporter, SafetyError,
                           UsageError)
+from .measurements.csvfile import snapshot as measurement_snapshot
 from .measurements.registry import ReadContext, read as read_measurement
 from .motion import ARC, LINE, Step
 from .output import Spool
@@ -40,16 +39,10 @@ from .program import interpret_source
 from .region import Region
 from .request import Request
 from .rewrite import Piece, Rewriter, Settings
-from .source import Source
+from .source import Source, count_lines
 
 HEADER_MARK = "POSTPROC"
-_HEADER = re.compile(r"^\s*\(POSTPROC \S+ COMPENSATED", re.IGNORECASE)
 _SAFE = re.compile(r"[^A-Z0-9 .,:/_=+-]")
-
-
-def digest(path: str) -> str:
-    with open(path, "rb") as handle:
-        return hashlib.sha256(handle.read()).hexdigest()
 
 
 class Pipeline:
@@ -59,22 +52,20 @@ class Pipeline:
         self.request = request
         self.profile = profile
         self.reporter = reporter or Reporter()
-        if request.tolerance is not None and not request.tolerance > 0:
-            raise OptionError(f"--tolerance {request.tolerance}: the tolerance must be positive")
-        if request.max_correction is not None and not request.max_correction > 0:
-            raise OptionError(f"--max-correction {request.max_correction}: must be positive")
-        self.max_correction = request.max_correction or profile.max_correction
+        self.max_correction = bounds.in_force(request.tolerance, request.max_correction, profile)
         context = Context(profile, self.reporter, request.tolerance or profile.default_tolerance(False), request.force)
         self.inputs: list[tuple[str, str]] = []  # (file, sha256) for the provenance
-        self.stated: list = []  # the measurement times the files state (their ``measured`` key)
-        if request.model:
-            self._load(request.model, context)
-            return
-        installed = registry.select(request.plugins)
-        self.installed = installed
-        self.settings = parse_options(request.options, [item.cls for item in installed])
-        self.compensators: list[Compensator] = [item.cls(context, self.settings[item.cls.name]) for item in installed]
-        self._fit()
+        self.measured: list = []  # when each measurement was taken (path, time or None), for a saved model
+        with inputs.session():  # each file read once, whoever needs it
+            if request.model:
+                self._load(request.model, context)
+                return
+            installed = registry.select(request.plugins)
+            self.installed = installed
+            self.settings = parse_options(request.options, [item.cls for item in installed])
+            self.compensators: list[Compensator] = [item.cls(context, self.settings[item.cls.name])
+                                                    for item in installed]
+            self._fit()
 
     def _load(self, path: str, context: Context) -> None:
         """A saved model instead of measurements: the compensator it names, given its model."""
@@ -88,10 +79,11 @@ class Pipeline:
         if data.get("plugin_version") != item.version:
             self.reporter.warn(f"the model was made by {item.cls.name} {data.get('plugin_version')}; "
                                f"{item.version} is installed", Location(path))
-        compensator = item.cls(context, dict(data["options"]))
-        self._guarded(compensator, "load", compensator.load, data["model"])
+        options = check_options(data["options"], item.cls, Location(path))
+        compensator = item.cls(context, options)
+        self._guarded(compensator, "load", compensator.load, data["model"], model=path)
         self.installed, self.compensators = installed, [compensator]
-        self.settings = {item.cls.name: dict(data["options"])}
+        self.settings = {item.cls.name: options}
         self.inputs = [(entry["file"], entry["sha256"]) for entry in data.get("inputs", [])]
         self.inputs.append((path, data["sha256"]))
 
@@ -101,9 +93,8 @@ class Pipeline:
             raise UsageError("a model is fitted for one compensator: give one --plugin")
         compensator, item = self.compensators[0], self.installed[0]
         model = self._guarded(compensator, "model", compensator.model)
-        paths = [path for path, _ in self.inputs]
         return models.build(compensator.name, item.version, model, self.inputs, self.profile.name,
-                            self.settings[compensator.name], note, models.measured_at(paths, self.stated))
+                            self.settings[compensator.name], note, models.measured_at(self.measured, self.reporter))
 
     # ------------------------------------------------------------------ measurements
 
@@ -118,10 +109,9 @@ class Pipeline:
         readers = registry.readers()
         context = ReadContext(self.reporter)
         read = {kind: [read_measurement(path, kind, readers, context) for path in files] for kind, files in given.items()}
-        for kind, files in given.items():
-            self.inputs += [(path, digest(path)) for path in files]
-        self.stated = [moment for found in read.values() for item in found
-                       if (moment := getattr(item, "measured", None)) is not None]
+        paths = [path for files in given.values() for path in files]
+        self.inputs += [(path, _digest(path)) for path in paths]
+        self.measured = models.measurement_times(paths)
         for compensator in self.compensators:
             measurements = Measurements(**{kind: list(read[kind]) if kind in compensator.takes else [] for kind in read})
             missing = [kind for kind in compensator.needs if not getattr(measurements, kind)]
@@ -130,12 +120,20 @@ class Pipeline:
             self._guarded(compensator, "fit", compensator.fit, measurements)
 
     @staticmethod
-    def _guarded(compensator: Compensator, what: str, function, *args):
+    def _guarded(compensator: Compensator, what: str, function, *args, model: str | None = None):
+        """Call a compensator; its failure is named. For a compensator given a saved ``model``, a
+        failure on data (a missing key, a value of the wrong type), in loading it or in using it
+        later, is the file's: a ModelError (exit 3), not the compensator's (exit 5)."""
         try:
             with _time_limit(compensator.context.profile.plugin_time_limit_s):
                 return function(*args)
-        except PostprocError:
-            raise
+        except PostprocError as exc:
+            raise exc.at(Location(model)) if model is not None else exc
+        except (KeyError, IndexError, TypeError, ValueError, AttributeError, OverflowError) as exc:
+            if model is None:
+                raise PluginError(compensator.name, f"{what} failed: {exc.__class__.__name__}: {exc}") from None
+            raise ModelError(f"the model's content does not suit compensator {compensator.name} (is it another "
+                             f"compensator's?): {what}: {exc.__class__.__name__}: {exc}", Location(model)) from None
         except _Overtime:
             raise PluginError(compensator.name, f"{what} took longer than {compensator.context.profile.plugin_time_limit_s:g} s "
                               "(the machine profile's plugin_time_limit_s): stopped") from None
@@ -152,7 +150,7 @@ class Pipeline:
                      for m in step.moves if m.kind in (LINE, ARC) and m.known]
             for compensator in self.compensators:
                 if compensator.needs_survey:
-                    self._guarded(compensator, "survey", compensator.survey, moves)
+                    self._guarded(compensator, "survey", compensator.survey, moves, model=self.request.model)
         settings = Settings(
             tolerance=self.request.tolerance,
             mode=self.request.mode,
@@ -190,11 +188,16 @@ class Pipeline:
                                             "blocks have no place")
                     body.write("".join(line + anchor.block.eol for _, line in opening).encode())
             for compensator in self.compensators:
-                self._guarded(compensator, "finish", compensator.finish)
-            eol = _eol(lead[0]) if lead else "\n"
+                self._guarded(compensator, "finish", compensator.finish, model=self.request.model)
             spool.write("".join(lead).encode("utf-8", "surrogateescape"))
-            added = [f"{name} ADDED {line} AFTER LINE {anchor.block.line}" for name, line in opening]
-            spool.write(self._provenance(rewriter, eol, added).encode())
+            if region.ranges and not region.matched and not opening:  # nothing done is said, and not marked as done
+                self.reporter.warn(f"--region {' '.join(self.request.regions)} selects no block that could be "
+                                   "compensated: the program is written back unchanged and not marked COMPENSATED",
+                                   Location(source.name))
+            else:
+                eol = _eol(next(source.lines(), ""))
+                added = [f"{name} ADDED {line} AFTER LINE {anchor.block.line}" for name, line in opening]
+                spool.write(self._provenance(rewriter, eol, added).encode())
             body.seek(0)
             while chunk := body.read(1 << 20):
                 spool.write(chunk)
@@ -212,7 +215,7 @@ class Pipeline:
         inch = anchor.modal.inch if anchor is not None else False
         blocks: list[tuple[str, str]] = []
         for compensator in self.compensators:
-            for text in self._guarded(compensator, "prologue", compensator.prologue, inch):
+            for text in self._guarded(compensator, "prologue", compensator.prologue, inch, model=self.request.model):
                 try:
                     for _ in Interpreter(self.profile, Reporter(), "<prologue>").run(read_blocks([text + "\n"], "<prologue>")):
                         pass
@@ -228,25 +231,27 @@ class Pipeline:
         return blocks, anchor
 
     def _refuse_twice(self, source: Source) -> None:
-        for number, text in enumerate(source.lines(), 1):
-            if _HEADER.match(text):
-                if self.request.force:
-                    self.reporter.warn("this program was compensated before; compensating again (--force)",
-                                       Location(source.name, number, 1, text))
-                    return
-                raise SafetyError("this program was already compensated by postproc; give --force to compensate it again",
-                                  Location(source.name, number, 1, text))
-            if number > 50:
-                return
+        """A program that carries a provenance header anywhere (moved down by an editor, say) was
+        compensated before: refused unless forced."""
+        found = _compensated_before(source)
+        if found is None:
+            return
+        where = Location(source.name, *found)
+        if self.request.force:
+            self.reporter.warn("this program was compensated before; compensating again (--force)", where)
+            return
+        raise SafetyError("this program was already compensated by postproc; give --force to compensate it again",
+                          where)
 
     def _corrector(self):
         """The corrections of every compensator for a run of pieces, checked and added."""
         compensators = self.compensators
+        model = self.request.model
 
         def correct(pieces: list[Piece]) -> list[np.ndarray | None]:
             totals: list[np.ndarray | None] = [None] * len(pieces)
             for compensator in compensators:
-                shifts = self._guarded(compensator, "correct", compensator.correct_many, pieces)
+                shifts = self._guarded(compensator, "correct", compensator.correct_many, pieces, model=model)
                 for index, shift in enumerate(_checked(compensator.name, shifts, pieces)):
                     if shift is not None:
                         total = totals[index]
@@ -256,15 +261,25 @@ class Pipeline:
         return correct
 
     def _provenance(self, rewriter: Rewriter, eol: str, added: list[str]) -> str:
+        """The provenance comments: what was applied, from which files, every setting that
+        changes the output (options, regions, tolerance, mode, the machine profile), the blocks
+        compensators added and the blocks left uncompensated."""
+        request = self.request
         lines = [f"POSTPROC {__version__} COMPENSATED"]
         for item, compensator in zip(self.installed, self.compensators):
             lines.append(f"PLUGIN {compensator.name} {item.version}")
+        for name, values in self.settings.items():
+            lines += [f"OPTION {name}.{key}={_option_text(value)}" for key, value in sorted(values.items())]
         for path, sha in self.inputs:
             lines.append(f"INPUT {path.rsplit('/', 1)[-1][:28]} SHA256 {sha[:12]}")
-        if self.request.model:
-            lines.append(f"MODEL {self.request.model.rsplit('/', 1)[-1][:28]}")
-        tolerance = self.request.tolerance
-        lines.append(f"TOLERANCE {'DEFAULT' if tolerance is None else f'{tolerance:g} MM'} MODE {self.request.mode}")
+        if request.model:
+            lines.append(f"MODEL {request.model.rsplit('/', 1)[-1][:28]}")
+        lines += [f"REGION {region.strip()}" for region in request.regions]
+        tolerance = request.tolerance
+        lines.append(f"TOLERANCE {'DEFAULT' if tolerance is None else f'{tolerance:g} MM'} MODE {request.mode}")
+        lines.append(f"MACHINE {self.profile.name[:40]} MAX CORRECTION {self.max_correction:g} MM")
+        if request.force:
+            lines.append("FORCED: COMPENSATED AGAIN OR CHECK OVERRIDDEN")
         lines.append(f"LARGEST CORRECTION {rewriter.largest:.4f} MM")
         lines.append(f"BLOCKS REPLACED {rewriter.replaced} BY {rewriter.emitted}")
         lines += added
@@ -273,6 +288,12 @@ class Pipeline:
 
     def report(self) -> list[dict[str, Any]]:
         return [{"plugin": c.name, **c.report()} for c in self.compensators]
+
+
+def _digest(path: str) -> str:
+    """The SHA-256 of a measurement file, from its one read (a shop reader may have read it itself)."""
+    snapshot = inputs.recorded(path)
+    return snapshot.sha256 if snapshot is not None else measurement_snapshot(path).sha256
 
 
 class _Overtime(Exception):
@@ -353,6 +374,35 @@ def _unplannable_lines(unplannable: list[tuple[int, str]], shown: int = 10) -> l
     return lines
 
 
+def _option_text(value: Any) -> str:
+    return ("TRUE" if value else "FALSE") if isinstance(value, bool) else (f"{value:g}" if isinstance(value, float)
+                                                                        else str(value))
+
+
+_MARK = re.compile(rb"\(\s*postproc\s+\S+\s+compensated")
+
+
+def _compensated_before(source: Source) -> tuple[int, int, str] | None:
+    """Where a provenance header stands (line, column, the line's text) anywhere in the program, or None: a scan of
+    the bytes for the mark, lower-cased a chunk at a time."""
+    line = 1
+    for chunk in source.chunks():
+        lowered = chunk.lower()
+        at = lowered.find(b"postproc")
+        while at >= 0:
+            start = lowered.rfind(b"(", 0, at)
+            match = _MARK.match(lowered, start) if start >= 0 else None
+            if match is not None:
+                before = max(chunk.rfind(b"\n", 0, match.start()), chunk.rfind(b"\r", 0, match.start()))
+                ends = [i for i in (chunk.find(b"\n", match.end()), chunk.find(b"\r", match.end())) if i >= 0]
+                text = chunk[before + 1 : min(ends) if ends else len(chunk)].decode("utf-8", "surrogateescape")
+                col = len(chunk[before + 1 : match.start()].decode("utf-8", "surrogateescape")) + 1
+                return line + count_lines(chunk, 0, before + 1), col, text
+            at = lowered.find(b"postproc", at + 1)
+        line += count_lines(chunk, 0, len(chunk))
+    return None
+
+
 def _safe(text: str) -> str:
     return _SAFE.sub("_", text.upper())[:60]
 
@@ -363,4 +413,5 @@ def _is_program_start(text: str) -> bool:
 
 
 def _eol(text: str) -> str:
-    return "\r\n" if text.endswith("\r\n") else "\n"
+    """The program's own line ending (CRLF, a lone CR or LF), from its first line."""
+    return "\r\n" if text.endswith("\r\n") else ("\r" if text.endswith("\r") else "\n")

@@ -31,12 +31,13 @@ from __future__ import annotations
 
 import math
 import re
-import sys
 from dataclasses import dataclass
 
 import numpy as np
 
+from . import inputs
 from .diagnostics import STDIN_NAME, Location, MeasurementError, Reporter
+from .measurements.csvfile import MAX_BYTES
 from .measurements.probe import PROBE_MAGIC, UNIT_TOLERANCE
 
 VERSION = 1  #: the printout format written and read here
@@ -141,14 +142,10 @@ def _number(text: str) -> float:
 
 def _lines(path: str) -> list[tuple[int, str]]:
     """The printout's lines, numbered as an editor numbers them, cleaned of line ends and feed characters."""
-    try:
-        if path == STDIN_NAME:
-            data = sys.stdin.buffer.read()
-        else:
-            with open(path, "rb") as handle:
-                data = handle.read()
-    except OSError as exc:
-        raise MeasurementError(f"cannot read the printout: {exc.strerror}", Location(path)) from None
+    if path == STDIN_NAME:
+        data = inputs.read_stdin(path, MAX_BYTES, MeasurementError, "a printout").data
+    else:
+        data = inputs.read(path, MAX_BYTES, MeasurementError, "a printout").data
     if not data.strip():
         raise MeasurementError("the printout is empty", Location(path))
     try:

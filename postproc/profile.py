@@ -13,6 +13,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from . import bounds
+from .bounds import MAX_TOLERANCE
 from .diagnostics import Location, OptionError
 
 INCREMENTS = {  # least input increment per system: (mm, inch)
@@ -73,25 +75,21 @@ class MachineProfile:
         if self.tolerance is not None:
             return self.tolerance
         step = self.resolution_mm(inch)
-        return max(0.001, 2.0 * step) if (inch or step > 0.001) else 0.001
+        return min(max(0.001, 2.0 * step) if (inch or step > 0.001) else 0.001, MAX_TOLERANCE)
 
 
 DEFAULT = MachineProfile()
+
+MAX_BYTES = 1024 * 1024  #: a machine profile is a page of text
 
 _FIELDS = {f.name: f for f in dataclasses.fields(MachineProfile) if f.name != "extra"}
 
 
 def load(path: str) -> MachineProfile:
     """Read a profile from TOML; unknown keys are refused (``x-`` keys are kept aside)."""
-    import tomllib  # only when a profile is given: every run starts faster without it
+    from . import inputs
 
-    try:
-        with open(path, encoding="utf-8") as handle:
-            data = tomllib.loads(handle.read())
-    except OSError as exc:
-        raise OptionError(f"cannot read machine profile: {exc.strerror}", Location(path)) from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise OptionError(f"not a valid TOML machine profile: {exc}", Location(path)) from None
+    data, _ = inputs.read_toml(path, MAX_BYTES, OptionError, "a machine profile")
     return from_mapping(data, path)
 
 
@@ -107,6 +105,10 @@ def from_mapping(data: dict[str, Any], origin: str = "<profile>") -> MachineProf
             raise OptionError(f"unknown key {key!r} in machine profile", Location(origin))
         values[name] = _checked(name, value, origin)
     profile = MachineProfile(**values, extra=extra)
+    where = Location(origin)
+    bounds.max_correction(profile.max_correction, "max_correction =", where)
+    if profile.tolerance is not None:
+        bounds.tolerance(profile.tolerance, profile.max_correction, "tolerance =", where)
     if profile.gcode_system not in ("A", "B", "C"):
         raise OptionError("gcode_system must be A, B or C", Location(origin))
     if profile.input_increment not in INCREMENTS:
@@ -124,6 +126,8 @@ def _checked(name: str, value: Any, origin: str) -> Any:
         if not (isinstance(value, list) and len(value) == 2 and all(_is_number(v) for v in value)):
             raise OptionError(f"{name} must be a list of two numbers", Location(origin))
         low, high = float(value[0]), float(value[1])
+        if not (math.isfinite(low) and math.isfinite(high)):
+            raise OptionError(f"{name}: the limits must be finite numbers", Location(origin))
         if not low < high:
             raise OptionError(f"{name}: the first limit must be below the second", Location(origin))
         return (low, high)
@@ -134,14 +138,39 @@ def _checked(name: str, value: Any, origin: str) -> Any:
     if isinstance(default, int) and not isinstance(default, bool):
         if not isinstance(value, int) or isinstance(value, bool) or value < 0:
             raise OptionError(f"{name} must be a whole number", Location(origin))
+        _within(name, value, origin)
         return value
     if isinstance(default, float) or name == "tolerance":
         if not _is_number(value) or not math.isfinite(value) or value <= 0:
             raise OptionError(f"{name} must be a positive number", Location(origin))
+        _within(name, value, origin)
         return float(value)
     if not isinstance(value, str):
         raise OptionError(f"{name} must be a string", Location(origin))
     return value
+
+
+#: The sane range of each number a profile holds: beyond it, a typo or a unit slip (the
+#: tolerance and the maximum correction: :mod:`postproc.bounds`).
+_RANGES = {
+    "arc_radius_tolerance": (0.0, 1.0, "mm"),
+    "max_arc_radius": (0.0, 100_000.0, "mm"),
+    "min_block_time_s": (0.0, 1.0, "s"),
+    "max_spindle_rpm": (0.0, 100_000.0, "rpm"),
+    "nose_radius_mm": (0.0, 10.0, "mm"),
+    "model_max_age_days": (0.0, 36_500.0, "days"),
+    "plugin_time_limit_s": (0.0, 86_400.0, "s"),
+    "output_decimals_mm": (2, 6, "decimals"),
+    "output_decimals_inch": (3, 7, "decimals"),
+}
+
+
+def _within(name: str, value: float, origin: str) -> None:
+    if name in _RANGES:
+        low, high, unit = _RANGES[name]
+        if not low <= value <= high:
+            raise OptionError(f"{name} = {value:g}: out of range for a lathe (at most {high:g} {unit}"
+                              f"{f', at least {low:g}' if low else ''})", Location(origin))
 
 
 def _is_number(value: Any) -> bool:

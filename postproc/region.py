@@ -44,13 +44,15 @@ def parse(text: str) -> Range:
 
 
 class Region:
-    """Whether a step's moves may be compensated; asked for the steps in program order."""
+    """Whether a step's moves may be compensated; asked, in program order, about the moves a
+    compensation could change (so that ``matched`` says whether the region selected any)."""
 
     def __init__(self, specs: list[str]):
         self.ranges = [parse(spec) for spec in specs]
         self._open: set[int] = set()  # label ranges we are inside
         self._step: Step | None = None
         self._selected = False
+        self.matched = False  #: whether any move asked about was selected
 
     def __call__(self, step: Step, move: Move) -> bool:
         if not self.ranges:
@@ -58,9 +60,9 @@ class Region:
         if step is not self._step:
             self._step = step
             self._selected = self._decide(step)
-        if self._selected:
-            return True
-        return any(r.kind == "tool" and move.tool == r.first for r in self.ranges)
+        chosen = self._selected or any(r.kind == "tool" and move.tool == r.first for r in self.ranges)
+        self.matched |= chosen
+        return chosen
 
     def _decide(self, step: Step) -> bool:
         label = step.block.label

@@ -33,7 +33,9 @@ import numpy as np
 from . import gcodes as G
 from .blocks import Block
 from .diagnostics import Location, PostprocError, Reporter, SafetyError, UnplannableBlock
+from .bounds import MAX_TOLERANCE
 from .emitter import Style, Writer, with_motion_code
+from .farthest import farthest, within
 from .geometry import Arc, Line, segment_of
 from .interpreter import Interpreter
 from .motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
@@ -259,6 +261,7 @@ class Rewriter:
         self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
         self._checker: Interpreter | None = None  # reads replacements back (the self-check)
         self._grids: dict[bool, Grid] = {}  # by inch
+        self._allowances: dict[bool, tuple[float, float]] = {}  # for the last check, by inch
         self._grid_steps: dict[bool, tuple[float, float]] = {}  # by inch
         self._limits: dict[tuple[float, bool], Limits] = {}  # by tolerance and inch
 
@@ -493,6 +496,16 @@ class Rewriter:
             steps = self._grid_steps[inch] = (grid.x_step, grid.z_step)
         return steps
 
+    def _allowance(self, step: Step) -> tuple[float, float]:
+        """The tolerance the last check counts (at most MAX_TOLERANCE) and one output step in mm
+        (the larger of X's, a radius, and Z's), by the program's units."""
+        inch = step.modal.inch
+        found = self._allowances.get(inch)
+        if found is None:
+            grid = self._grid(step)
+            found = self._allowances[inch] = (min(self._tolerance(step), MAX_TOLERANCE), max(grid.x_step, grid.z_step))
+        return found
+
     def _tolerance(self, step: Step) -> float:
         if self.settings.tolerance is not None:
             return self.settings.tolerance
@@ -553,6 +566,7 @@ class Rewriter:
         writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
         lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
         self._self_check(entry, lines, cuts)
+        self._near_nominal(entry, cuts)
         self._follow_contour(step, cuts)
         self.mode_now = mode
         self.replaced += 1
@@ -790,6 +804,31 @@ class Rewriter:
                     raise SafetyError(
                         f"self-check: the replacement runs {planned.deviation * 1000:.2f} um from the intended path "
                         f"(tolerance {tolerance * 1000:.2f} um)", _where(self.file, step))
+
+    def _near_nominal(self, entry: Entry, cuts: list[Cut]) -> None:
+        """No written cut may run further from the moves it replaces than the largest correction
+        plus the tolerance (:mod:`postproc.farthest`), whatever the options: the tolerance counts
+        at most :data:`bounds.MAX_TOLERANCE` here, a widened plan's at most twice that, and one
+        output step is allowed for the rounding of connecting moves."""
+        step = entry.step
+        tolerance, slack = self._allowance(step)
+        nominal = []
+        for move, edit in zip(step.moves, entry.edits or [None] * len(step.moves)):
+            if edit is not None:  # the pieces the targets were made of: the move itself
+                nominal += [target.nominal for target in edit.targets]
+                for planned in edit.plans:
+                    if planned.widened:
+                        tolerance = max(tolerance, min(planned.deviation, 2.0 * tolerance))
+            elif move.known and move.kind in (LINE, ARC, RAPID):
+                nominal.append(segment_of(move))
+        allowed = self.largest + tolerance + slack
+        for cut in cuts:
+            if not any(within(cut, segment, allowed) for segment in nominal):
+                distance = min(farthest(cut, segment) for segment in nominal)
+                raise SafetyError(
+                    f"the replacement would run {distance * 1000:.1f} um from the programmed path, more than the "
+                    f"largest correction ({self.largest * 1000:.2f} um) plus the tolerance ({tolerance * 1000:.2f} um) "
+                    "allow: refused", _where(self.file, step))
 
 
 BLOCK_TIME, INTERFERENCE = "minimum block time", "nose radius interference check"

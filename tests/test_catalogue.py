@@ -56,6 +56,10 @@ PROGRAMS = [
     ("END1.\n", "1:1: error: END1.: the loop number of DO and END is 1, 2 or 3 (FANUC alarm PS0126)"),
     ("WHILE [#1 LT 3] DO 4\n", "1:17: error: DO4: the loop number of DO and END is 1, 2 or 3 (FANUC alarm PS0126)"),
     ("#1=#1-#11:\n", "1:10: error: unexpected character ':'"),
+    ("#1=[99999999.*99999999.*99999999.*99999999.*99999999.*99999999.]\n",
+     "1:1: error: macro expression: calculated data overflow: 1e+48 is beyond +-1e47 (FANUC alarm PS0111)"),
+    ("#1=[99999999.*99999999.*99999999.*99999999.*99999999.]\n#[#1*#1]=1\n",
+     "2:1: error: macro expression: calculated data overflow: 1e+80 is beyond +-1e47 (FANUC alarm PS0111)"),
 ]
 
 
@@ -98,10 +102,6 @@ BALLBAR = [
     ("unknown-key", HEAD.replace("angle_deg", "# raduis_mm = 5\nangle_deg").encode() + ROWS.encode(),
      "{f}:4: error: unknown header key 'raduis_mm' (known: capture_arc_deg, center_x_mm, center_z_mm, centered, "
      "direction, feed_mm_min, measured, radius_mm, start_angle_deg; keys of your own start with x-)"),
-    ("measured-no-zone", HEAD.replace("angle_deg", "# measured = 2026-11-20T14:05:00\nangle_deg").encode() + ROWS.encode(),
-     "{f}:4: error: measured = '2026-11-20T14:05:00' has no time zone; write it like 2026-11-20T14:05:00+01:00"),
-    ("measured-text", HEAD.replace("angle_deg", "# measured = last tuesday\nangle_deg").encode() + ROWS.encode(),
-     "{f}:4: error: measured = 'last tuesday' is not an ISO 8601 time; write it like 2026-11-20T14:05:00+01:00"),
     ("twice", HEAD.replace("# direction", "# radius_mm = 100\n# direction").encode() + ROWS.encode(),
      "{f}:3: error: header key 'radius_mm' given twice (first on line 2)"),
     ("bad-header-line", HEAD.replace("radius_mm = 100", "radius_mm 100").encode() + ROWS.encode(),
@@ -138,6 +138,12 @@ BALLBAR = [
      "of arc"),
     ("raw-key-in-processed", HEAD.replace("angle_deg,", "# start_angle_deg = 0\nangle_deg,").encode() + ROWS.encode(),
      "{f}:4: error: start_angle_deg belongs to the raw form (angles are given here)"),
+    ("measured-without-zone", HEAD.replace("angle_deg", "# measured = 2026-11-20T14:05:00\nangle_deg").encode()
+     + ROWS.encode(), "{f}:4: error: measured = '2026-11-20T14:05:00': expected an ISO 8601 time with a time zone, "
+                      "such as 2026-11-20T14:05:00+01:00"),
+    ("measured-not-a-time", HEAD.replace("angle_deg", "# measured = yesterday\nangle_deg").encode() + ROWS.encode(),
+     "{f}:4: error: measured = 'yesterday': expected an ISO 8601 time with a time zone, such as "
+     "2026-11-20T14:05:00+01:00"),
     ("raw-without-start", b"# postproc ballbar 1\n# radius_mm = 100\n# direction = ccw\ndeviation_mm\n0\n0\n0\n0\n0\n0\n",
      "{f}: error: the header key 'start_angle_deg' is required"),
 ]
@@ -212,14 +218,95 @@ OPTIONS = [
      "postproc: error: --option parametric.extrapolate=perhaps: expected true or false"),
     (["--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW, "--region", "N10..N20"], 3, "postproc: error: --region N10..N20: expected N100-N200, L10-L50 (or 10-50) or a tool like T01"),
     (["--ballbar", CCW], 2, "postproc: error: measurements were given but no compensator (--plugin) to use them"),
+    (["--tolerance", "inf"], 3, "postproc: error: --tolerance inf: not a finite number"),
+    (["--tolerance", "nan"], 3, "postproc: error: --tolerance nan: not a finite number"),
+    (["--tolerance", "1e999"], 3, "postproc: error: --tolerance 1e999: not a finite number"),
+    (["--tolerance", "abc"], 3, "postproc: error: --tolerance abc: not a number"),
+    (["--tolerance", "20"], 3, "postproc: error: --tolerance 20: a tolerance of 20 mm (20000 um) is above 0.05 mm, "
+                               "which would let the emitted path stray from the part; did you mean 20 um "
+                               "(--tolerance 0.02)?"),
+    (["--tolerance", "1e9"], 3, "postproc: error: --tolerance 1e+09: a tolerance of 1e+09 mm (1e+12 um) is above "
+                                "0.05 mm, which would let the emitted path stray from the part; did you mean 1e+09 um "
+                                "(--tolerance 1e+06)?"),
+    (["--tolerance", "0.05", "--max-correction", "0.01"], 3,
+     "postproc: error: --tolerance 0.05: a tolerance above the maximum correction (0.01 mm) would let the emitted path "
+     "stray further than any correction moves it; give at most 0.01 mm"),
+    (["--max-correction", "5"], 3, "postproc: error: --max-correction 5: 5 mm (5000 um) is above 1 mm, beyond any "
+                                   "error a compensation corrects; did you mean 5 um (--max-correction 0.005)?"),
+    (["--max-correction", "inf"], 3, "postproc: error: --max-correction inf: not a finite number"),
+    (["--out-dir", "out", "--jobs", "100000"], 2,
+     "postproc: error: --jobs 100000: far more processes than a machine runs at once (at most 1024); give about the "
+     "number of CPUs"),
 ]
 
 
 @pytest.mark.parametrize("args, code, message", OPTIONS, ids=[" ".join(a[-2:]) for a, _, _ in OPTIONS])
-def test_bad_options(run, args, code, message):
+def test_bad_options(run, tmp_path, monkeypatch, args, code, message):
+    monkeypatch.chdir(tmp_path)
     result = run("compensate", HEMISHELL, *args)
     assert result.exit_code == code and result.stdout_bytes == b""
     assert result.stderr.splitlines()[0] == message
+    assert list(tmp_path.iterdir()) == []
+
+
+#: Every number any command takes is finite: (command line, message).
+NUMBERS = [
+    (["path", HEMISHELL, "--tolerance", "nan"], "--tolerance nan: not a finite number"),
+    (["report", HEMISHELL, "--tolerance", "inf"], "--tolerance inf: not a finite number"),
+    (["inspect", HEMISHELL, "--probe", PROBE, "--band", "nan"], "--band nan: not a finite number"),
+    (["ballbar", CCW, "--max-deviation", "nan"], "--max-deviation nan: not a finite number"),
+    (["ballbar", CCW, "--max-deviation", "0"], "--max-deviation 0: must be positive"),
+    (["probe-import", PROBE, "--stylus-radius", "inf"], "--stylus-radius inf: not a finite number"),
+    (["probe-program", HEMISHELL, "--datum-x", "nan", "--datum-z", "1"], "--datum-x nan: not a finite number"),
+    (["probe-program", HEMISHELL, "--clearance", "inf"], "--clearance inf: not a finite number"),
+    (["simulate", "ballbar", "--radius", "inf"], "--radius inf: not a finite number"),
+    (["simulate", "ballbar", "--center-x", "-inf"], "--center-x -inf: not a finite number"),
+    (["simulate", "calibrate", "--step-deg", "nan"], "--step-deg nan: not a finite number"),
+]
+
+
+@pytest.mark.parametrize("args, message", NUMBERS, ids=[" ".join(a[:1] + a[-2:]) for a, _ in NUMBERS])
+def test_numbers_that_are_not_finite_are_refused_everywhere(run, args, message):
+    result = run(*args)
+    assert (result.exit_code, result.stdout_bytes) == (3, b"")
+    assert result.stderr == f"postproc: error: {message}\n"
+
+
+PROFILES = [
+    ("nested", "x-deep = " + "[" * 3000 + "]" * 3000, ": error: nested too deeply to be a machine profile"),
+    ("tolerance-inf", "tolerance = inf", ": error: tolerance must be a positive number"),
+    ("tolerance-nan", "tolerance = nan", ": error: tolerance must be a positive number"),
+    ("tolerance-um", "tolerance = 20", ": error: tolerance = 20: a tolerance of 20 mm (20000 um) is above 0.05 mm, which "
+                                       "would let the emitted path stray from the part; did you mean 20 um "
+                                       "(tolerance = 0.02)?"),
+    ("tolerance-above-correction", "max_correction = 0.01\ntolerance = 0.02",
+     ": error: tolerance = 0.02: a tolerance above the maximum correction (0.01 mm) would let the emitted path stray "
+     "further than any correction moves it; give at most 0.01 mm"),
+    ("correction-um", "max_correction = 5", ": error: max_correction = 5: 5 mm (5000 um) is above 1 mm, beyond any "
+                                            "error a compensation corrects; did you mean 5 um (max_correction = 0.005)?"),
+    ("time-limit", "plugin_time_limit_s = 1e300", ": error: plugin_time_limit_s = 1e+300: out of range for a lathe (at "
+                                                  "most 86400 s)"),
+    ("decimals", "output_decimals_mm = 40", ": error: output_decimals_mm = 40: out of range for a lathe (at most 6 "
+                                            "decimals, at least 2)"),
+    ("limits", "x_limits = [-inf, inf]", ": error: x_limits: the limits must be finite numbers"),
+    ("binary", "\x00\x01", ":1: error: not valid TOML: Invalid statement"),
+]
+
+
+@pytest.mark.parametrize("name, text, message", PROFILES, ids=[case[0] for case in PROFILES])
+def test_bad_machine_profiles(run, tmp_path, name, text, message):
+    machine = tmp_path / "m.toml"
+    machine.write_text(text + "\n")
+    _refused(run, tmp_path, ["--machine", str(machine)], f"{machine}{message}")
+
+
+def _refused(run, tmp_path, args: list[str], first_line: str) -> None:
+    """compensate with these options: exit 3, this first line on stderr, nothing written."""
+    target = tmp_path / "out.nc"
+    result = run("compensate", HEMISHELL, *args, "-o", str(target))
+    assert (result.exit_code, result.stdout_bytes) == (3, b"")
+    assert result.stderr.splitlines()[0] == first_line
+    assert not target.exists()
 
 
 def test_models_from_another_version_or_tampered(run, tmp_path):
@@ -237,3 +324,112 @@ def test_models_from_another_version_or_tampered(run, tmp_path):
     result = run("compensate", HEMISHELL, "--model", str(model))
     assert (result.exit_code, result.stderr.splitlines()[0]) == (
         3, f"{model}: error: the model's content does not match its SHA-256: it was changed after it was saved")
+
+
+def _resigned(data: dict) -> str:
+    """A model whose hash matches its (changed) content: what is checked is then the content."""
+    import hashlib
+
+    from postproc.models import _canonical
+
+    payload = {key: value for key, value in data.items() if key != "sha256"}
+    return json.dumps({**payload, "sha256": hashlib.sha256(_canonical(payload)).hexdigest()})
+
+
+def _deep(levels: int):
+    value: object = 1.0
+    for _ in range(levels):
+        value = [value]
+    return value
+
+
+#: (name, change to a fitted parametric model, message after "FILE: error: ")
+MODELS = [
+    ("nested-deeply", lambda d: d["model"].update(fit=_deep(40)), "not a postproc model (nested deeper than 32 levels)"),
+    ("nested-beyond-the-parser", None, "not a postproc model (nested deeper than 32 levels)"),
+    ("5000-digits", "5000", "not a postproc model (an integer of thousands of digits)"),
+    ("4000-digits", lambda d: d["model"].update(radius_mm=10**3999), "model.radius_mm: an integer of 4000 digits is "
+                                                                     "not a plausible value"),
+    ("nan", "nan", "not a postproc model (NaN is not a number a model holds)"),
+    ("infinity", "inf", "not a postproc model (Infinity is not a number a model holds)"),
+    ("time-without-zone", lambda d: d.update(measured="2026-11-20T14:05:00"),
+     "the model's measured time '2026-11-20T14:05:00' is not an ISO 8601 time with a time zone (such as "
+     "2026-11-20T14:05:00+01:00)"),
+    ("inputs-a-string", lambda d: d.update(inputs="ccw.csv"), "'inputs' must be a list, not a string"),
+    ("inputs-entries", lambda d: d.update(inputs=[{"file": 1}]),
+     'inputs[0] must be {"file": name, "sha256": 64 hex digits}'),
+    ("options-a-list", lambda d: d.update(options=["extrapolate"]), "'options' must be an object, not a list"),
+    ("plugin-a-number", lambda d: d.update(plugin=5), "'plugin' must be a string, not a whole number"),
+    ("unknown-key", lambda d: d.update(colour="red"), "unknown key 'colour' in the model (known: created, format, "
+                                                       "inputs, machine_profile, measured, model, note, options, "
+                                                       "plugin, plugin_version, postproc, sha256, version)"),
+    ("unknown-option", lambda d: d.update(options={"colour": "red"}),
+     "options.colour: parametric declares no such option (it declares: extrapolate, max-uncertainty)"),
+    ("option-value", lambda d: d.update(options={"extrapolate": "perhaps"}),
+     'options.extrapolate = "perhaps": expected true or false'),
+    ("radius-zero", lambda d: d["model"].update(radius_mm=0), "model.radius_mm = 0: a radius must be positive"),
+    ("radius-negative", lambda d: d["model"].update(radius_mm=-100.0),
+     "model.radius_mm = -100.0: a radius must be positive"),
+    ("another-plugins-model", lambda d: d.update(plugin="ballbar-inverse"),
+     "the model's content does not suit compensator ballbar-inverse (is it another compensator's?): load: KeyError: "
+     "'traces'"),
+    ("model-incomplete", lambda d: d["model"].pop("parameters"),
+     "parametric: the saved model is incomplete (KeyError: 'parameters')"),
+]
+
+
+@pytest.mark.parametrize("name, change, message", MODELS, ids=[case[0] for case in MODELS])
+def test_bad_models(run, tmp_path, name, change, message):
+    """Bad data in a model is bad input (exit 3), never an internal error."""
+    model = tmp_path / "m.json"
+    assert run("fit", "--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW, "-o", str(model)).exit_code == 0
+    data = json.loads(model.read_text())
+    if callable(change):
+        change(data)
+        text = _resigned(data)
+    elif change is None:
+        text = "[" * 100_000 + "]" * 100_000
+    else:
+        literal = {"5000": "1" * 5000, "nan": "NaN", "inf": "Infinity"}[change]
+        text = _resigned(data).replace('"radius_mm": 100.0', f'"radius_mm": {literal}')
+    model.write_text(text)
+    _refused(run, tmp_path, ["--model", str(model)], f"{model}: error: {message}")
+
+
+def test_a_saved_trace_is_held_to_what_a_trace_file_is(run, tmp_path):
+    model = tmp_path / "m.json"
+    fit = ["fit", "--plugin", "ballbar-inverse", "--ballbar", CCW, "--ballbar", CW, "--option", "radius-mapping=relative"]
+    assert run(*fit, "-o", str(model)).exit_code == 0
+    changes = [
+        (lambda t: t.update(radius_mm=0.0), "model.traces.ccw.radius_mm = 0.0: a radius must be positive"),
+        (lambda t: t.update(angles_deg=t["angles_deg"][::-1]), "a saved ccw trace's angles must increase within 0 .. "
+                                                               "360 deg"),
+        (lambda t: t.update(deviations_mm=t["deviations_mm"][:2]), "a saved ccw trace needs at least 3 angles and as "
+                                                                   "many deviations"),
+        (lambda t: t["deviations_mm"].__setitem__(0, 1.5), "a saved ccw trace's deviation of 1.5 mm is beyond 1 mm: "
+                                                           "not a plausible ballbar reading"),
+        (lambda t: t.update(centre_mm=[0.0]), "a saved ccw trace's centre_mm must be two finite numbers"),
+    ]
+    for change, message in changes:
+        data = json.loads(model.read_text())
+        change(data["model"]["traces"]["ccw"])
+        bad = tmp_path / "bad.json"
+        bad.write_text(_resigned(data))
+        result = run("compensate", HEMISHELL, "--model", str(bad))
+        assert (result.exit_code, result.stderr.splitlines()[0]) == (3, f"{bad}: error: {message}")
+
+
+INPUTS = [
+    ("/dev/zero", "/dev/zero:1:1: error: a NUL byte: this is binary data, not a text program; nothing more was read"),
+    ("/proc/self/mem", "/proc/self/mem: error: cannot read program: Input/output error"),
+]
+
+
+@pytest.mark.parametrize("path, message", INPUTS, ids=[case[0] for case in INPUTS])
+def test_devices_as_programs(run, path, message):
+    import os
+
+    if not os.path.exists(path):
+        pytest.skip(f"no {path} here")
+    result = run("compensate", path)
+    assert (result.exit_code, result.stdout_bytes, result.stderr.splitlines()[0]) == (3, b"", message)

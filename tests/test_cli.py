@@ -7,11 +7,16 @@ from conftest import corpus
 HEMISHELL = b"%\nO1000 (HEMISHELL)\nG18 G21 G99\nT0101\nG00 X0. Z60.\nG01 Z57.15 F0.1\nG03 X114.3 Z0. I0. K-57.15\nG00 X150.\nM30\n%\n"
 
 
-def test_compensate_without_compensator_is_the_identity(run, tmp_path):
+NOTHING_APPLIED = ("postproc: warning: no compensator was given (--plugin or --model): nothing was applied; the "
+                   "program is written back unchanged\n")
+
+
+def test_compensate_without_compensator_is_the_identity_and_says_so(run, tmp_path):
+    """An empty $PLUGIN in a post-processing script must not send an uncompensated part silently."""
     source = tmp_path / "part.nc"
     source.write_bytes(HEMISHELL)
     result = run("compensate", str(source))
-    assert (result.exit_code, result.stdout_bytes, result.stderr) == (0, HEMISHELL, "")
+    assert (result.exit_code, result.stdout_bytes, result.stderr) == (0, HEMISHELL, NOTHING_APPLIED)
     target = tmp_path / "out.nc"
     result = run("compensate", str(source), "-o", str(target))
     assert (result.exit_code, result.stdout_bytes) == (0, b"")
@@ -157,3 +162,18 @@ def test_calculator_input_is_unset_unless_the_profile_states_it(run, tmp_path):
     result = run("check", "--machine", str(machine), input=HEMISHELL)
     assert result.exit_code == 3
     assert "calculator_input must be true or false" in result.stderr
+
+
+def test_jobs_are_capped_at_the_programs_and_cpus_and_say_so(run, tmp_path):
+    import os
+
+    programs = corpus("fanuc")[:2]
+    cpus = len(os.sched_getaffinity(0))
+    result = run("compensate", *map(str, programs), "--out-dir", str(tmp_path), "--jobs", "64")
+    assert result.exit_code == 0, result.stderr
+    runs = "1 process runs" if cpus == 1 else "2 processes run"
+    assert result.stderr.splitlines()[0] == (f"postproc: warning: --jobs 64: {runs} (2 programs, {cpus} "
+                                             f"CPU{'s' * (cpus != 1)})")
+    absurd = run("compensate", *map(str, programs), "--out-dir", str(tmp_path / "x"), "--jobs", "100000")
+    assert absurd.exit_code == 2 and not (tmp_path / "x").exists()
+    assert run("compensate", *map(str, programs), "--out-dir", str(tmp_path), "--jobs", "0").exit_code == 2

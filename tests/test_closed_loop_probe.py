@@ -309,7 +309,7 @@ def test_a_wear_offset_is_added_by_an_incremental_g10_after_the_units_and_stated
     at = lines.index("G18 G21 G40 G99")
     assert lines[at + 1] == "G10 P1 U-0.040 W0.012" and lines.index("T0101") > at + 1
     assert "(TOOL-OFFSET ADDED G10 P1 U-0.040 W0.012 AFTER LINE 4)" in lines
-    provenance = ("(POSTPROC", "(PLUGIN", "(INPUT", "(TOLERANCE", "(LARGEST", "(BLOCKS", "(TOOL-OFFSET", "G10 ")
+    provenance = ("(POSTPROC", "(PLUGIN", "(OPTION", "(INPUT", "(TOLERANCE", "(MACHINE", "(LARGEST", "(BLOCKS", "(TOOL-OFFSET", "G10 ")
     assert [line for line in lines if not line.startswith(provenance)] == Path(HEMISHELL).read_text().splitlines()
     assert "(BLOCKS REPLACED 0 BY 0)" in text
     assert ("warning: tool-offset: G10 P1 U-0.040 W0.012 opens the program: it adds -0.040 mm (a diameter) to the X "

@@ -45,13 +45,30 @@ def _limited():
 
 
 def test_a_full_disk_is_reported_and_leaves_nothing(tmp_path):
+    """The program (17 kB) fits under the limit; its compensation in lines (41 kB) does not."""
+    program = tmp_path / "big.nc"
+    program.write_text(lathe_program(600))
+    target = tmp_path / "out.nc"
+    compensator = ["--plugin", "parametric", "--option", "extrapolate=true", "--mode", "line",
+                   "--ballbar", str(REPO / "samples/ballbar/v40r-100-ccw.csv"),
+                   "--ballbar", str(REPO / "samples/ballbar/v40r-100-cw.csv")]
+    result = subprocess.run(COMMAND + ["compensate", str(program), *compensator, "-o", str(target)],
+                            capture_output=True, text=True, preexec_fn=_limited)
+    assert result.returncode == 3
+    assert result.stderr.startswith(f"{target}: error: cannot write output: no space left for it")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["big.nc"]
+
+
+def test_a_full_temporary_folder_is_reported_as_such(tmp_path):
+    """The one copy of the program kept while it is compensated does not fit: said, and nothing written."""
     program = tmp_path / "big.nc"
     program.write_text(lathe_program(3000))
     target = tmp_path / "out.nc"
     result = subprocess.run(COMMAND + ["compensate", str(program), "-o", str(target)], capture_output=True, text=True,
                             preexec_fn=_limited)
     assert result.returncode == 3
-    assert result.stderr.startswith(f"{target}: error: cannot write output: no space left for it")
+    assert result.stderr.startswith(f"{program}: error: cannot keep a copy of the program in ")
+    assert "no space left for it" in result.stderr and "nothing was written" in result.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["big.nc"]
 
 

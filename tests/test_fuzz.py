@@ -1,10 +1,14 @@
-"""Fuzzing: whatever a program holds, postproc answers with a clean result or one diagnostic.
+"""Fuzzing: whatever a program, a measurement file or a model holds, postproc answers with a
+clean result or one diagnostic.
 
 Generated programs (from the grammar's constructs) and real programs of the corpus mutated
 byte by byte (cut, duplicated and swapped bytes, inserted characters, stray macros) go through
-``check`` and ``compensate``. Every outcome must be exit 0 with the program, or exit 2/3/4
-with exactly one error line naming a position and no output at all: never a traceback, never
-a hang (each example has a deadline), never partial output.
+``check`` and ``compensate``; the sample measurement files (ballbar traces, probe points, a
+calibration) mutated the same way go through ``ballbar`` and ``compensate``; saved models are
+mutated byte by byte and, re-signed so that their hash still matches, value by value (any key
+replaced by any JSON value, or removed). Every outcome must be exit 0 with the program, or exit
+2/3/4 with exactly one error line naming a position and no output at all: never a traceback
+or an internal error, never a hang (each example has a deadline), never partial output.
 
 The suite runs a size CI affords. A longer run, for a scheduled job::
 
@@ -16,8 +20,15 @@ from __future__ import annotations
 import os
 import re
 
+import hashlib
+import json
+
+from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+
+from postproc.cli import main
+from postproc.models import _canonical
 
 from conftest import SAMPLES, corpus
 from strategies import lathe_programs, lines
@@ -33,8 +44,8 @@ NOISE = [b"(", b")", b"#", b"[", b"]", b";", b".", b"-", b"+", b"N", b"O", b"%",
 
 
 @st.composite
-def mutated(draw) -> bytes:
-    data = bytearray(draw(st.sampled_from(PROGRAMS)))
+def mutated(draw, sources=PROGRAMS) -> bytes:
+    data = bytearray(draw(st.sampled_from(sources)))
     for _ in range(draw(st.integers(1, 4))):
         if not data:
             break
@@ -126,3 +137,112 @@ def test_a_zero_model_gives_the_nominal_path(run, tmp_path_factory, seed):
 def test_the_samples_are_valid_programs(run):
     for path in sorted((SAMPLES / "programs").glob("*.nc")):
         assert run("check", str(path)).exit_code == 0
+
+
+HEMISHELL = str(SAMPLES / "programs" / "hemishell.nc")
+CCW, CW = (str(SAMPLES / "ballbar" / f"v40r-100-{d}.csv") for d in ("ccw", "cw"))
+PROBE = str(SAMPLES / "probe" / "hemishell-pass1.csv")
+CALIBRATION = str(SAMPLES / "probe" / "artifact-calibration.csv")
+MEASUREMENTS = {
+    "ballbar": [(SAMPLES / "ballbar" / name).read_bytes() for name in ("v40r-100-ccw.csv", "v40r-100-ccw-raw.csv")],
+    "probe": [(SAMPLES / "probe" / "hemishell-pass1.csv").read_bytes()],
+    "calibration": [(SAMPLES / "probe" / "artifact-calibration.csv").read_bytes()],
+}
+MEASUREMENT_NOISE = [b",", b"#", b"=", b"-", b".", b"e", b"9", b"nan", b"inf", b"\n", b"\r", b"\x00", b"\xff",
+                     b"# measured = 2026-01-01T00:00:00", b"# x-note = 1", b"1e308", b"0", b" "]
+
+
+@st.composite
+def mutated_measurement(draw) -> tuple[str, bytes]:
+    kind = draw(st.sampled_from(sorted(MEASUREMENTS)))
+    data = bytearray(draw(st.sampled_from(MEASUREMENTS[kind])))
+    for _ in range(draw(st.integers(1, 4))):
+        if not data:
+            break
+        at = draw(st.integers(0, len(data) - 1))
+        kind_of_change = draw(st.integers(0, 3))
+        if kind_of_change == 0:
+            data = data[:at] + data[at + draw(st.integers(1, 40)):]
+        elif kind_of_change == 1:
+            data[at:at] = data[at : at + draw(st.integers(1, 40))]
+        else:
+            data[at:at] = draw(st.sampled_from(MEASUREMENT_NOISE))
+    return kind, bytes(data)
+
+
+@FUZZ
+@given(mutated_measurement())
+def test_mutated_measurement_files_get_a_result_or_one_diagnostic(run, tmp_path_factory, case):
+    kind, data = case
+    folder = tmp_path_factory.mktemp("measurement")
+    path = folder / f"{kind}.csv"
+    path.write_bytes(data)
+    target = folder / "out.nc"
+    arguments = {"ballbar": ["--plugin", "parametric", "--option", "extrapolate=true", "--ballbar", str(path),
+                             "--ballbar", CW],
+                 "probe": ["--plugin", "omp-feedback", "--probe", str(path)],
+                 "calibration": ["--plugin", "omp-feedback", "--probe", PROBE, "--calibration", str(path)]}[kind]
+    result = run("compensate", HEMISHELL, *arguments, "-o", str(target))
+    _outcome(result, target.exists() and result.exit_code != 0)
+    if kind == "ballbar":
+        _outcome(run("ballbar", str(path)))
+
+
+def _fitted(plugin: str, *arguments: str) -> dict:
+    folder = SAMPLES.parent / ".pytest-fuzz-models"  # a fitted model, made once per session in memory
+    result = CliRunner().invoke(main, ["fit", "--plugin", plugin, *arguments], catch_exceptions=False)
+    assert result.exit_code == 0, (folder, result.stderr)
+    return json.loads(result.stdout)
+
+
+MODELS = {
+    "parametric": _fitted("parametric", "--ballbar", CCW, "--ballbar", CW),
+    "ballbar-inverse": _fitted("ballbar-inverse", "--ballbar", CCW, "--ballbar", CW, "--option",
+                               "radius-mapping=relative"),
+    "omp-feedback": _fitted("omp-feedback", "--probe", PROBE),
+}
+JSON_VALUES = st.recursive(
+    st.none() | st.booleans() | st.integers(-10**20, 10**20) | st.floats(allow_nan=False, allow_infinity=False)
+    | st.text(max_size=8),
+    lambda children: st.lists(children, max_size=4) | st.dictionaries(st.text(max_size=8), children, max_size=4),
+    max_leaves=8)
+
+
+def _places(value, path=()):
+    """Every place in a JSON value: the key paths of its objects' members and lists' items."""
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    for key, item in items:
+        yield path + (key,)
+        if len(path) < 6 and not (isinstance(item, list) and len(item) > 8):
+            yield from _places(item, path + (key,))
+        elif isinstance(item, list) and item:
+            yield path + (key, 0)
+
+
+@st.composite
+def changed_models(draw) -> bytes:
+    plugin = draw(st.sampled_from(sorted(MODELS)))
+    data = json.loads(json.dumps(MODELS[plugin]))
+    data.pop("sha256")
+    for _ in range(draw(st.integers(1, 3))):
+        place = draw(st.sampled_from(list(_places(data))))
+        parent = data
+        for key in place[:-1]:
+            parent = parent[key]
+        if isinstance(parent, dict) and draw(st.booleans()) and draw(st.booleans()):
+            parent.pop(place[-1], None)
+        else:
+            parent[place[-1]] = draw(JSON_VALUES)
+    data["sha256"] = hashlib.sha256(_canonical(data)).hexdigest()
+    return json.dumps(data).encode()
+
+
+@FUZZ
+@given(st.one_of(changed_models(), mutated([json.dumps(model).encode() for model in MODELS.values()])))
+def test_changed_models_get_a_result_or_one_diagnostic(run, tmp_path_factory, data):
+    folder = tmp_path_factory.mktemp("model")
+    model = folder / "m.json"
+    model.write_bytes(data)
+    target = folder / "out.nc"
+    result = run("compensate", HEMISHELL, "--model", str(model), "-o", str(target))
+    _outcome(result, target.exists() and result.exit_code != 0)

@@ -75,7 +75,7 @@ def test_a_model_carries_its_own_compensator_and_options(run, tmp_path):
 
 
 def test_a_model_is_dated_by_the_measured_key_of_its_files(run, tmp_path):
-    """Every measurement format takes ``measured`` (ISO 8601 with a zone); the model keeps the newest, in UTC."""
+    """Every measurement format takes ``measured`` (ISO 8601 with a zone); a model is as old as its oldest measurement, in UTC."""
     stamped = []
     for path, moment in ((CCW, "2026-11-20T14:05:00+01:00"), (CW, "2026-11-20T14:35:00+01:00")):
         lines = open(path).read().splitlines(keepends=True)
@@ -85,7 +85,7 @@ def test_a_model_is_dated_by_the_measured_key_of_its_files(run, tmp_path):
     model = tmp_path / "model.json"
     fitted = run("fit", "--plugin", "parametric", "--ballbar", stamped[0], "--ballbar", stamped[1], "-o", str(model))
     assert fitted.exit_code == 0, fitted.stderr
-    assert json.loads(model.read_text())["measured"] == "2026-11-20T13:35:00+00:00"
+    assert json.loads(model.read_text())["measured"] == "2026-11-20T13:05:00+00:00"
     for name in ("probe/hemishell-pass1.csv", "probe/artifact-calibration.csv"):
         lines = (SAMPLES / name).read_text().splitlines(keepends=True)
         probe = tmp_path / name.rsplit("/", 1)[-1]

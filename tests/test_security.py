@@ -53,7 +53,8 @@ def test_size_limits(run, tmp_path, monkeypatch):
     model = tmp_path / "m.json"
     model.write_text("{" + " " * 2000 + "}")
     result = run("compensate", HEMISHELL, "--model", str(model))
-    assert result.exit_code == 3 and "larger than 1000 bytes: not a model" in result.stderr
+    assert result.exit_code == 3
+    assert result.stderr == f"{model}: error: the file is 2002 bytes; a model is at most 1000\n"
     monkeypatch.setattr(source, "MAX_PROGRAM_BYTES", 100)
     result = run("check", HEMISHELL)
     assert result.exit_code == 3 and result.stderr.startswith(f"{HEMISHELL}: error: program is ")

@@ -31,6 +31,7 @@ from ..ballbar_fit import arc_text
 from ..diagnostics import Location, MeasurementError, Reporter
 from ..measurements.ballbar import BallbarTrace
 from ..plotting import plot_traces
+from .common import POSITIVE, guard
 
 BOTH_DIRECTIONS = ["bidirectional_circular_deviation_mm", "hysteresis_mm", "squareness_rad", "servo_mismatch_mm",
                    "servo_lag_ms"]
@@ -45,7 +46,7 @@ DIRECTIONS = ("ccw", "cw")
 @click.option("--plot", metavar="FILE", help="Write a polar plot of the traces (.png or .svg).")
 @click.option("--averaging", type=click.IntRange(min=1), default=6, show_default=True, metavar="N",
               help="Raw form: readings averaged per sample.")
-@click.option("--max-deviation", type=click.FloatRange(min=0.0, min_open=True), default=1.0, show_default=True,
+@click.option("--max-deviation", type=POSITIVE, default=1.0, show_default=True,
               metavar="MM", help="A deviation beyond this is not a plausible ballbar reading.")
 @click.option("--no-diagnosis", is_flag=True, help="The ISO figures alone, without the parametric diagnosis.")
 def command(files, as_json, plot, averaging, max_deviation, no_diagnosis):
@@ -53,6 +54,7 @@ def command(files, as_json, plot, averaging, max_deviation, no_diagnosis):
     from ..measurements.registry import ReadContext, read
     from ..plugins import readers
 
+    guard([("FILE", name) for name in files], [("--plot", plot)])
     reporter = Reporter(sys.stderr)
     context = ReadContext(reporter, averaging, max_deviation)
     found = readers()

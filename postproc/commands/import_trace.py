@@ -29,6 +29,7 @@ from ..diagnostics import Location, MeasurementError, Reporter, UsageError
 from ..measurements.ballbar import MAGIC, make_trace, raw_samples, repeated_angle
 from ..measurements.csvfile import read_text
 from ..output import STDOUT, write_atomically
+from .common import FINITE, guard
 
 DELIMITERS = {"comma": ",", "semicolon": ";", "tab": "\t", "space": None}
 
@@ -45,15 +46,15 @@ class Table:
 
 @click.command("import-trace")
 @click.argument("file", metavar="FILE")
-@click.option("--radius", type=float, required=True, metavar="MM", help="Nominal bar length.")
+@click.option("--radius", type=FINITE, required=True, metavar="MM", help="Nominal bar length.")
 @click.option("--direction", type=click.Choice(["ccw", "cw"]), required=True,
               help="ccw: the G03 run (theta decreasing); cw: the G02 run (theta increasing).")
-@click.option("--center-x", type=float, default=0.0, show_default=True, metavar="MM", help="Test centre x (radius mm).")
-@click.option("--center-z", type=float, default=0.0, show_default=True, metavar="MM", help="Test centre z.")
-@click.option("--feed", type=float, metavar="MM/MIN", help="The test's feed (for the servo lag).")
-@click.option("--start-angle", type=float, metavar="DEG",
+@click.option("--center-x", type=FINITE, default=0.0, show_default=True, metavar="MM", help="Test centre x (radius mm).")
+@click.option("--center-z", type=FINITE, default=0.0, show_default=True, metavar="MM", help="Test centre z.")
+@click.option("--feed", type=FINITE, metavar="MM/MIN", help="The test's feed (for the servo lag).")
+@click.option("--start-angle", type=FINITE, metavar="DEG",
               help="Raw deviations (no angle column): theta of the first reading.")
-@click.option("--capture-arc", type=float, metavar="DEG", help="Raw deviations: the arc captured (default 360).")
+@click.option("--capture-arc", type=FINITE, metavar="DEG", help="Raw deviations: the arc captured (default 360).")
 @click.option("--columns", metavar="ANGLE,DEVIATION|DEVIATION",
               help="Which columns hold the angle and the deviation (1-based numbers or header names); "
                    "default: the first two, or the only one.")
@@ -62,7 +63,7 @@ class Table:
 @click.option("--decimal-comma", is_flag=True, help="Numbers are written 1,25 (the delimiter is then not a comma).")
 @click.option("--unit", type=click.Choice(["mm", "um"]), default="mm", show_default=True,
               help="The unit of the deviations.")
-@click.option("--angle-offset", type=float, default=0.0, show_default=True, metavar="DEG",
+@click.option("--angle-offset", type=FINITE, default=0.0, show_default=True, metavar="DEG",
               help="theta of the export's 0 deg (an export with 0 at +Z: 90).")
 @click.option("--reverse-angles", is_flag=True, help="The export's angles run from +Z towards +X (theta the other way).")
 @click.option("--centered", is_flag=True, help="The deviations are already centred: no set-up centre is removed.")
@@ -83,8 +84,7 @@ def command(file, radius, direction, center_x, center_z, feed, start_angle, capt
         raise UsageError("--capture-arc belongs to raw deviations: give --start-angle as well")
     if decimal_comma and delimiter == "comma":
         raise UsageError("--decimal-comma: the delimiter cannot be a comma as well")
-    if output != STDOUT and os.path.exists(output) and os.path.exists(file) and os.path.samefile(output, file):
-        raise UsageError(f"-o {output} is the export itself: write the trace to another file")
+    guard([("FILE", file)], [("-o", output)])
     reporter = Reporter(sys.stderr)
     table = read_export(file, delimiter, decimal_comma)
     raw = start_angle is not None

@@ -34,6 +34,7 @@ from ..pretravel import fit_calibration
 from ..probing import FORCE_FLAG, ProbedProfile, probe_profile
 from ..profile import DEFAULT, load
 from ..simulator.nominal import chain, read_program
+from .common import FINITE, guard
 
 EXIT_RECUT = EXIT_WOULD_CHANGE  #: as ``--check``: the part would change if the loop goes on
 IN_TOLERANCE, RECUT = "in tolerance", "re-cut with compensation"
@@ -58,7 +59,7 @@ def compensate_command(program: str, probe: str, calibration: str | None, machin
 @click.argument("program", default="-")
 @click.option("--probe", "probe_path", required=True, metavar="FILE", help="Probe points measured on the part.")
 @click.option("--calibration", metavar="FILE", help="A probe calibration on an artifact.")
-@click.option("--band", type=float, required=True, metavar="MM",
+@click.option("--band", type=FINITE, required=True, metavar="MM",
               help="Tolerance: every cleaned deviation must lie within +-MM.")
 @click.option("--from-line", type=int, metavar="L", help="Profile: moves from this source line.")
 @click.option("--to-line", type=int, metavar="L", help="Profile: moves up to this source line.")
@@ -69,6 +70,7 @@ def command(program, probe_path, calibration, band, from_line, to_line, machine,
     """Deviations of probed points from the nominal profile: in tolerance (exit 0) or re-cut (exit 1)."""
     if not (np.isfinite(band) and band > 0):
         raise OptionError(f"--band {band:g}: must be positive")
+    guard([("PROGRAM", program), ("--probe", probe_path), ("--calibration", calibration), ("--machine", machine)], [])
     profile = load(machine) if machine else DEFAULT
     reporter = Reporter(sys.stderr)
     name, moves = read_program(program, profile, reporter)

@@ -19,13 +19,14 @@ import click
 from ..diagnostics import OptionError, Reporter
 from ..output import STDOUT, write_atomically
 from ..probe_printout import probe_data, probe_file_text, read_printout
+from .common import FINITE, guard
 
 
 @click.command("probe-import")
 @click.argument("printout")
-@click.option("--stylus-radius", type=float, metavar="MM",
+@click.option("--stylus-radius", type=FINITE, metavar="MM",
               help="The stylus radius the probe file names (default: the one the program was written for).")
-@click.option("--repeatability", type=float, default=0.003, show_default=True, metavar="MM",
+@click.option("--repeatability", type=FINITE, default=0.003, show_default=True, metavar="MM",
               help="The machine's repeatability: the datum check's limit (docs/methods.md §1: X +-0.003 mm).")
 @click.option("-o", "--output", "output", default=STDOUT, metavar="FILE", help="Write the probe file here.")
 def command(printout, stylus_radius, repeatability, output):
@@ -33,6 +34,7 @@ def command(printout, stylus_radius, repeatability, output):
     for name, value in (("--stylus-radius", stylus_radius), ("--repeatability", repeatability)):
         if value is not None and not (math.isfinite(value) and value > 0):
             raise OptionError(f"{name} {value:g}: must be positive")
+    guard([("PRINTOUT", printout)], [("-o", output)])
     reporter = Reporter(sys.stderr)
     run = read_printout(printout)
     data = probe_data(run, stylus_radius, repeatability, reporter)

@@ -23,6 +23,7 @@ from ..output import STDOUT, write_atomically
 from ..probe_cycle import DATUM_SURFACES, Cycle, code_digits, plan, self_check
 from ..profile import DEFAULT, load
 from ..simulator.nominal import MATERIAL, nominal, read_program
+from .common import FINITE, guard
 
 DEFAULTS = Cycle()
 
@@ -39,20 +40,20 @@ DEFAULTS = Cycle()
 @click.option("--material", type=click.Choice(MATERIAL), default="axis", show_default=True,
               help="Which side of the profile is material: towards the spindle axis, or left/right of the "
                    "direction of travel.")
-@click.option("--inset", type=float, default=DEFAULTS.inset, show_default=True, metavar="MM",
+@click.option("--inset", type=FINITE, default=DEFAULTS.inset, show_default=True, metavar="MM",
               help="Keep the touches this far (along the profile) from both ends of every feature; more at a concave "
                    "corner, as the stylus needs.")
-@click.option("--stylus-radius", type=float, default=DEFAULTS.stylus_radius, show_default=True, metavar="MM")
-@click.option("--clearance", type=float, default=DEFAULTS.clearance, show_default=True, metavar="MM",
+@click.option("--stylus-radius", type=FINITE, default=DEFAULTS.stylus_radius, show_default=True, metavar="MM")
+@click.option("--clearance", type=FINITE, default=DEFAULTS.clearance, show_default=True, metavar="MM",
               help="Each approach starts this far from the nominal surface.")
-@click.option("--overtravel", type=float, metavar="MM",
+@click.option("--overtravel", type=FINITE, metavar="MM",
               help="How far beyond the nominal surface the skip move aims (default: the clearance).")
-@click.option("--feed", type=float, default=DEFAULTS.feed, show_default=True, metavar="MM/MIN",
+@click.option("--feed", type=FINITE, default=DEFAULTS.feed, show_default=True, metavar="MM/MIN",
               help="Probing feed of the skip moves (calibrate at the same feed).")
-@click.option("--travel-feed", type=float, default=DEFAULTS.travel_feed, show_default=True, metavar="MM/MIN",
+@click.option("--travel-feed", type=FINITE, default=DEFAULTS.travel_feed, show_default=True, metavar="MM/MIN",
               help="Feed of the moves near the part.")
-@click.option("--datum-x", type=float, metavar="MM", help="Datum point x (radius), with --datum-z.")
-@click.option("--datum-z", type=float, metavar="MM", help="Datum point z, with --datum-x.")
+@click.option("--datum-x", type=FINITE, metavar="MM", help="Datum point x (radius), with --datum-z.")
+@click.option("--datum-z", type=FINITE, metavar="MM", help="Datum point z, with --datum-x.")
 @click.option("--datum-on", type=click.Choice(DATUM_SURFACES), default="face", show_default=True,
               help="The datum point lies on a face (touched from +Z), a diameter (from +X), or both (a corner).")
 @click.option("--tool", metavar="TNNNN", help="Select the probe with this T code (e.g. T0909).")
@@ -66,6 +67,7 @@ def command(program, points, per_feature, from_line, to_line, material, inset, s
     """Write a FANUC probing program (G31, DPRNT) for the profile of a part program."""
     if (datum_x is None) != (datum_z is None):
         raise UsageError("a datum is a point: give --datum-x and --datum-z together")
+    guard([("PROGRAM", program), ("--machine", machine)], [("-o", output)])
     profile = load(machine) if machine else DEFAULT
     reporter = Reporter(sys.stderr)
     name, moves = read_program(program, profile, reporter)

@@ -18,6 +18,7 @@ import click
 
 from ..diagnostics import Reporter, UsageError
 from ..output import STDOUT, write_atomically
+from .common import FINITE, guard
 
 
 @click.command("report")
@@ -30,7 +31,7 @@ from ..output import STDOUT, write_atomically
 @click.option("--model", metavar="FILE", help="A saved compensation model.")
 @click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
 @click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
-@click.option("--tolerance", type=float, metavar="MM", help="Largest deviation of the emitted path.")
+@click.option("--tolerance", type=FINITE, metavar="MM", help="Largest deviation of the emitted path.")
 def command(program, output, plugins, ballbar, probe, calibration, model, options, machine, tolerance):
     """An HTML report: measurements, ISO figures, fitted models, predicted profile, provenance."""
     from .. import profile as profiles
@@ -43,6 +44,8 @@ def command(program, output, plugins, ballbar, probe, calibration, model, option
         raise UsageError("--option was given but no compensator (--plugin) to take it")
     if not (program or plugins or model or ballbar or probe or calibration):
         raise UsageError("nothing to report on: give a program, measurements or a compensator")
+    guard([("PROGRAM", program), ("--calibration", calibration), ("--model", model), ("--machine", machine)]
+          + [("--ballbar", name) for name in ballbar] + [("--probe", name) for name in probe], [("-o", output)])
     reporter = Reporter(sys.stderr)
     loaded = None
     if program is not None:

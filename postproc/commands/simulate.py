@@ -22,6 +22,7 @@ from ..output import STDOUT, write_atomically
 from ..simulator import ballbar_test, calibrate, cut, generator, inspect, load, nominal, probe_profile
 from ..simulator.files import calibration_text, probe_text, read_surface, surface_text, trace_text
 from ..simulator.nominal import MATERIAL, run_program
+from .common import FINITE, guard
 
 
 def _machine(function):
@@ -84,19 +85,20 @@ def command() -> None:
 @click.option("--direction", type=click.Choice(["ccw", "cw"]), default="ccw", show_default=True,
               help="ccw: the G03 run (theta decreasing); cw: the G02 run.")
 @click.option("--form", type=click.Choice(["processed", "raw"]), default="processed", show_default=True)
-@click.option("--radius", type=float, metavar="MM", help="Test radius (default: the table's).")
-@click.option("--center-x", type=float, metavar="MM", help="Test centre x (radius mm).")
-@click.option("--center-z", type=float, metavar="MM", help="Test centre z.")
-@click.option("--feed", type=float, metavar="MM/MIN", help="Feed (default: the table's).")
-@click.option("--start-angle", type=float, metavar="DEG", help="theta of the first captured sample (default: the table's).")
-@click.option("--capture-arc", type=float, metavar="DEG",
+@click.option("--radius", type=FINITE, metavar="MM", help="Test radius (default: the table's).")
+@click.option("--center-x", type=FINITE, metavar="MM", help="Test centre x (radius mm).")
+@click.option("--center-z", type=FINITE, metavar="MM", help="Test centre z.")
+@click.option("--feed", type=FINITE, metavar="MM/MIN", help="Feed (default: the table's).")
+@click.option("--start-angle", type=FINITE, metavar="DEG", help="theta of the first captured sample (default: the table's).")
+@click.option("--capture-arc", type=FINITE, metavar="DEG",
               help="The arc captured (default: the table's, 360; a lathe's XZ test: about 220).")
-@click.option("--overtravel", type=float, metavar="DEG",
+@click.option("--overtravel", type=FINITE, metavar="DEG",
               help="Arc run before and after the capture (default: the table's, 180; a partial arc: a few).")
 @_output
 def ballbar(machine, seed, direction, form, radius, center_x, center_z, feed, start_angle, capture_arc, overtravel,
             output):
     """A ballbar trace: the 720 deg test of docs/methods.md §3 in one direction, or a partial arc."""
+    guard([("--machine", machine)], [("-o", output)])
     simulation, _ = load(machine)
     seed = simulation.seed if seed is None else seed
     centre = None
@@ -116,6 +118,7 @@ def ballbar(machine, seed, direction, form, radius, center_x, center_z, feed, st
 @_output
 def cut_command(program, from_line, to_line, material, machine, output):
     """The surface a program's profile leaves: a dense polyline ordered along the path."""
+    guard([("PROGRAM", program), ("--machine", machine)], [("-o", output)])
     simulation, name, moves, profile_of, wear = _setup(machine, program, from_line, to_line, material)
     surface = cut(moves, profile_of, simulation, wear)
     write_atomically(output, surface_text(surface, _provenance("cut", machine, program=name)).encode())
@@ -125,7 +128,7 @@ def cut_command(program, from_line, to_line, material, machine, output):
 @_profile_options
 @click.option("--surface", metavar="FILE", help="The surface to probe (from 'simulate cut'); default: cut it now.")
 @click.option("--points", type=int, metavar="N", help="Touches along the profile (default: the table's).")
-@click.option("--inset", type=float, metavar="MM",
+@click.option("--inset", type=FINITE, metavar="MM",
               help="Spread the touches over the profile's features as probe-program does, this far from each "
                    "feature's ends (default: evenly along the whole profile, both ends included).")
 @click.option("--per-feature", type=int, default=MIN_TOUCHES, show_default=True, metavar="N",
@@ -135,6 +138,7 @@ def cut_command(program, from_line, to_line, material, machine, output):
 @_output
 def probe(program, from_line, to_line, material, surface, points, inset, per_feature, machine, seed, output):
     """A probe file: touches spread along the profile, the datum before and after."""
+    guard([("PROGRAM", program), ("--surface", surface), ("--machine", machine)], [("-o", output)])
     points = _count(points)
     if inset is not None and not (inset >= 0 and per_feature >= 1):
         raise OptionError(f"--inset {inset:g} --per-feature {per_feature}: the inset must not be negative and each "
@@ -149,13 +153,14 @@ def probe(program, from_line, to_line, material, surface, points, inset, per_fea
 @command.command("calibrate")
 @_machine
 @_seed
-@click.option("--radius", type=float, metavar="MM", help="Artifact radius (default: the table's).")
-@click.option("--center-x", type=float, metavar="MM", help="Artifact centre x (radius mm).")
-@click.option("--center-z", type=float, metavar="MM", help="Artifact centre z.")
-@click.option("--step-deg", type=float, metavar="DEG", help="Angle between touches (default: the table's).")
+@click.option("--radius", type=FINITE, metavar="MM", help="Artifact radius (default: the table's).")
+@click.option("--center-x", type=FINITE, metavar="MM", help="Artifact centre x (radius mm).")
+@click.option("--center-z", type=FINITE, metavar="MM", help="Artifact centre z.")
+@click.option("--step-deg", type=FINITE, metavar="DEG", help="Angle between touches (default: the table's).")
 @_output
 def calibrate_command(machine, seed, radius, center_x, center_z, step_deg, output):
     """A probe calibration on the sphere artifact: touches over its top 180 deg."""
+    guard([("--machine", machine)], [("-o", output)])
     simulation, _ = load(machine)
     seed = simulation.seed if seed is None else seed
     for name, value in (("--radius", radius), ("--step-deg", step_deg)):

@@ -24,7 +24,6 @@ least 90 deg of arc. Every reader's traces are held to it (:func:`check_evidence
 
 from __future__ import annotations
 
-import datetime as dt
 import math
 from dataclasses import dataclass, field
 
@@ -59,7 +58,6 @@ class BallbarTrace:
     feed: float | None = None
     raw: bool = False
     extras: dict[str, str] = field(default_factory=dict)
-    measured: dt.datetime | None = None  #: when the trace was measured, if the file says
 
     @property
     def cw(self) -> bool:
@@ -197,13 +195,12 @@ def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6
             raise table.error(f"angle {written[row]:g} deg{same} again (first on line {table.rows[first][0]})",
                               table.rows[row][0])
     return make_trace(path, radius, direction, angles, deviations, centre, feed, centered, raw, table.extras,
-                      averaging if raw else 1, table.measured)
+                      averaging if raw else 1)
 
 
 def make_trace(path: str, radius: float, direction: str, angles, deviations, centre: tuple[float, float] = (0.0, 0.0),
                feed: float | None = None, centered: bool = False, raw: bool = False,
-               extras: dict[str, str] | None = None, averaging: int = 1,
-               measured: dt.datetime | None = None) -> BallbarTrace:
+               extras: dict[str, str] | None = None, averaging: int = 1) -> BallbarTrace:
     """A trace from its samples as any reader finds them: angles (degrees, any order, taken
     modulo 360) and deviations (mm). Sorts them, holds them to the minimum evidence and removes
     the set-up centre (unless ``centered``) as :func:`read_ballbar` does; for shop readers."""
@@ -212,7 +209,7 @@ def make_trace(path: str, radius: float, direction: str, angles, deviations, cen
     deviations = np.asarray(deviations, dtype=float)
     order = np.argsort(angles, kind="stable")
     trace = BallbarTrace(path, float(radius), direction, (float(centre[0]), float(centre[1])), angles[order],
-                         deviations[order], (0.0, 0.0), centered, feed, raw, dict(extras or {}), measured)
+                         deviations[order], (0.0, 0.0), centered, feed, raw, dict(extras or {}))
     check_evidence(trace, averaging)
     if centered:
         return trace

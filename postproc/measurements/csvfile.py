@@ -2,19 +2,19 @@
 
 A magic line, ``# key = value`` header lines, one CSV header row, then data rows. Unknown
 header keys are refused (a misspelt optional key must not fall back to its default) except
-``x-`` keys, which are kept. Every format takes ``measured``, when the measurement was taken
-(ISO 8601 with a time zone). Every problem is a MeasurementError in the fixed message forms:
-``FILE:LINE: error:`` for a header line or data row, ``FILE: error:`` for the whole file.
+``x-`` keys, which are kept. Every format takes the optional key ``measured``: when the
+measurement was taken, ISO 8601 with a time zone (a saved model records it). Every problem is
+a MeasurementError in the fixed message forms: ``FILE:LINE: error:`` for a header line or data
+row, ``FILE: error:`` for the whole file.
 """
 
 from __future__ import annotations
 
 import datetime as dt
 import math
-import os
 from dataclasses import dataclass, field
-from pathlib import Path
 
+from .. import inputs
 from ..diagnostics import Location, MeasurementError
 
 MAX_BYTES = 64 * 1024 * 1024  #: a measurement file larger than this is not a measurement file
@@ -37,7 +37,6 @@ class Table:
     extras: dict[str, str]  #: the x- keys
     columns: list[str]
     rows: list[tuple[int, list[float]]] = field(default_factory=list)  #: (line, values)
-    measured: dt.datetime | None = None  #: the ``measured`` key: when the measurement was taken
 
     def where(self, line: int | None = None) -> Location:
         return Location(self.path, line)
@@ -88,18 +87,6 @@ def _float(text: str) -> float | None:
     return value if math.isfinite(value) else None
 
 
-def _moment(text: str, location: Location) -> dt.datetime:
-    """The ``measured`` key: an ISO 8601 time with its zone (a time without one is ambiguous)."""
-    try:
-        moment = dt.datetime.fromisoformat(text)
-    except ValueError:
-        moment = None
-    if moment is None or moment.tzinfo is None:
-        why = "is not an ISO 8601 time" if moment is None else "has no time zone"
-        raise MeasurementError(f"measured = {text!r} {why}; write it like 2026-11-20T14:05:00+01:00", location)
-    return moment
-
-
 def _decode(path: str, data: bytes) -> str:
     if not data.strip():
         raise MeasurementError("the file is empty", Location(path))
@@ -118,16 +105,40 @@ def _decode(path: str, data: bytes) -> str:
         ) from None
 
 
-def read_text(path: str) -> str:
-    """A measurement file's text: at most MAX_BYTES, UTF-8 (a BOM dropped), refused otherwise."""
+def parse_time(text: str) -> dt.datetime | None:
+    """An ISO 8601 time with its time zone (``2026-11-20T14:05:00+01:00``, ``...Z``), or None: a
+    time without a zone names no moment."""
     try:
-        size = os.path.getsize(path)
-        if size > MAX_BYTES:
-            raise MeasurementError(f"the file is {size} bytes; a measurement file is at most {MAX_BYTES}", Location(path))
-        data = Path(path).read_bytes()
-    except OSError as exc:
-        raise MeasurementError(f"cannot read the file: {exc.strerror}", Location(path)) from None
-    return _decode(path, data)
+        moment = dt.datetime.fromisoformat(text.strip())
+    except (TypeError, ValueError):
+        return None
+    return moment if moment.tzinfo is not None and moment.utcoffset() is not None else None
+
+
+def measured_time(path: str) -> dt.datetime | None:
+    """The ``measured`` header key of a postproc measurement file (from its one read), or None."""
+    try:
+        data = snapshot(path).data
+    except MeasurementError:
+        return None
+    for line in data.decode("utf-8", "replace").splitlines()[1:]:
+        text = line.strip()
+        if text and not text.startswith("#"):
+            return None
+        key, _, value = text[1:].partition("=")
+        if key.strip() == "measured":
+            return parse_time(value)
+    return None
+
+
+def read_text(path: str) -> str:
+    """A measurement file's text, from its one read: at most MAX_BYTES, UTF-8 (a BOM dropped)."""
+    return _decode(path, snapshot(path).data)
+
+
+def snapshot(path: str) -> inputs.Snapshot:
+    """The one read of a measurement file (:mod:`postproc.inputs`), at most MAX_BYTES."""
+    return inputs.read(path, MAX_BYTES, MeasurementError, "a measurement file")
 
 
 def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[str]]) -> Table:
@@ -163,11 +174,14 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
         if key.startswith("x-"):
             extras[key] = value
             continue
-        if key not in allowed:
+        if key not in allowed and key not in COMMON_KEYS:
             raise MeasurementError(
-                f"unknown header key {key!r} (known: {', '.join(sorted(allowed))}; keys of your own start with x-)",
-                Location(path, number),
+                f"unknown header key {key!r} (known: {', '.join(sorted(allowed | COMMON_KEYS))}; keys of your own "
+                "start with x-)", Location(path, number),
             )
+        if key == "measured" and parse_time(value) is None:
+            raise MeasurementError(f"measured = {value!r}: expected an ISO 8601 time with a time zone, such as "
+                                   "2026-11-20T14:05:00+01:00", Location(path, number))
         if key in header:
             raise MeasurementError(f"header key {key!r} given twice (first on line {header[key][1]})", Location(path, number))
         header[key] = (value, number)
@@ -179,9 +193,6 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
         expected = " or ".join(",".join(c) for c in column_sets)
         raise MeasurementError(f"the CSV header row must be {expected}, not {lines[number - 1].strip()!r}", Location(path, number))
     table = Table(path, header, extras, columns)
-    if "measured" in header:
-        text, line = header["measured"]
-        table.measured = _moment(text, Location(path, line))
     for row_number in range(number + 1, len(lines) + 1):
         text = lines[row_number - 1].strip()
         if not text:

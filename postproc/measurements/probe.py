@@ -11,7 +11,6 @@ a touch on the +X side moving in -X has theta = 0.
 
 from __future__ import annotations
 
-import datetime as dt
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -43,7 +42,6 @@ class Touches:
     approach: np.ndarray  #: (n, 2) unit vectors into the material
     lines: tuple[int, ...]  #: the data row of each touch
     extras: dict[str, str] = field(default_factory=dict)
-    measured: dt.datetime | None = None  #: when the touches were taken, if the file says
 
     @property
     def theta(self) -> np.ndarray:
@@ -102,7 +100,7 @@ def read_probe(path: str) -> ProbeFile:
     if before and repeatability is None:
         raise table.error("datum readings without repeatability_mm: the stability check needs it")
     centres, approach, lines = _touches(table)
-    return ProbeFile(path, stylus, centres, approach, lines, table.extras, table.measured, before, after, repeatability)
+    return ProbeFile(path, stylus, centres, approach, lines, table.extras, before, after, repeatability)
 
 
 def read_calibration(path: str) -> CalibrationRun:
@@ -111,7 +109,7 @@ def read_calibration(path: str) -> CalibrationRun:
     radius = table.number("artifact_radius_mm", positive=True, required=True)
     centre = (table.number("artifact_center_x_mm", required=True), table.number("artifact_center_z_mm", required=True))
     centres, approach, lines = _touches(table)
-    run = CalibrationRun(path, stylus, centres, approach, lines, table.extras, table.measured, radius, centre)
+    run = CalibrationRun(path, stylus, centres, approach, lines, table.extras, radius, centre)
     factors = run.factors()
     worst = int(np.argmax(np.abs(factors)))
     if abs(factors[worst]) > 0.5 * stylus:

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from ..diagnostics import Location, MeasurementError, Reporter
+from .csvfile import snapshot
 
 KINDS = ("ballbar", "probe", "calibration")
 
@@ -34,11 +35,11 @@ class MeasurementReader:
 
 
 def first_line(path: str, size: int = 256) -> str:
-    """The start of a file's first line, for readers that recognise a format by it."""
+    """The start of a file's first line, for readers that recognise a format by it (from the
+    file's one read: a pipe would be empty for the reader that comes next)."""
     try:
-        with open(path, "rb") as handle:
-            head = handle.read(size)
-    except OSError:
+        head = snapshot(path).data[:size]
+    except MeasurementError:
         return ""
     return head.split(b"\n", 1)[0].decode("utf-8", "replace").lstrip("\ufeff").strip()
 
@@ -56,8 +57,5 @@ def read(path: str, kind: str, readers: list[MeasurementReader], context: ReadCo
                     check_evidence(found)  # whichever reader made it
             return found
     names = ", ".join(reader.name for reader in candidates) or "none installed"
-    try:
-        open(path, "rb").close()
-    except OSError as exc:
-        raise MeasurementError(f"cannot read the file: {exc.strerror}", Location(path)) from None
+    snapshot(path)  # a file that cannot be read says why
     raise MeasurementError(f"not a {kind} file any installed reader knows (tried: {names})", Location(path, 1))

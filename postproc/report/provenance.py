@@ -14,9 +14,13 @@ import platform
 from dataclasses import dataclass
 from importlib import metadata
 
-from .. import __version__
+from .. import __version__, inputs
+from ..diagnostics import PostprocError
 from ..profile import MachineProfile, to_toml
 from .document import Section, Table, Text
+
+
+MAX_BYTES = 64 * 1024 * 1024  #: the largest of the inputs' own limits (measurement files, models)
 
 
 @dataclass(frozen=True, slots=True)
@@ -29,9 +33,9 @@ class Input:
 
 
 def file_input(role: str, path: str, notes: str = "") -> Input:
-    with open(path, "rb") as handle:
-        data = handle.read()
-    return Input(role, path, hashlib.sha256(data).hexdigest(), len(data), notes)
+    """A file as the run read it (its one read, :mod:`postproc.inputs`)."""
+    snapshot = inputs.read(path, MAX_BYTES, PostprocError, "an input")
+    return Input(role, path, snapshot.sha256, len(snapshot.data), notes)
 
 
 def data_input(role: str, name: str, data: bytes) -> Input:

@@ -19,8 +19,6 @@ exit code.
 from __future__ import annotations
 
 import datetime as dt
-import os
-import tempfile
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -32,7 +30,7 @@ from ..figures import Figures, figures
 from ..measurements.ballbar import BallbarTrace, pair
 from ..measurements.probe import CalibrationRun, ProbeFile
 from ..measurements.registry import ReadContext, read as read_measurement
-from ..output import Spool
+from ..output import KEEP, Spool
 from ..request import Request
 from ..probing import ProbedProfile, probe_profile
 from ..profile import MachineProfile
@@ -204,13 +202,9 @@ def _predict(run: Run) -> None:
 
 def _compensate(pipeline, name: str, data: bytes):
     """The compensated program, exactly as ``compensate`` writes it, and the run's summary."""
-    with tempfile.TemporaryDirectory(prefix="postproc-report-") as folder:
-        path = os.path.join(folder, "compensated.nc")
-        with Source.from_text(data, name) as source, Spool(path) as spool:
-            summary = pipeline.compensate_source(source, spool)
-            spool.commit()
-        with open(path, "rb") as handle:
-            return handle.read(), summary
+    with Source.from_text(data, name) as source, Spool(KEEP) as spool:
+        summary = pipeline.compensate_source(source, spool)
+        return spool.value(), summary
 
 
 def _against_profile(run: Run, probed: Probed) -> ProbedProfile:

@@ -9,6 +9,7 @@ from postproc.diagnostics import Location, MeasurementError
 from postproc.geometry import Arc
 from postproc.hookspecs import hookimpl
 from postproc.measurements.ballbar import BallbarTrace, make_trace
+from postproc.measurements.csvfile import snapshot
 from postproc.measurements.registry import MeasurementReader, first_line
 
 
@@ -48,8 +49,7 @@ def _is_shopbar(path: str) -> bool:
 
 def _read_shopbar(path: str, context) -> BallbarTrace:
     """SHOPBAR EXPORT;RADIUS=100;DIR=CW, then ANGLE;DEV_UM rows."""
-    with open(path, encoding="utf-8") as handle:
-        lines = handle.read().splitlines()
+    lines = snapshot(path).data.decode("utf-8", "replace").splitlines()  # the file's one read: pipes work too
     fields = dict(part.split("=", 1) for part in lines[0].split(";")[1:] if "=" in part)
     try:
         radius = float(fields["RADIUS"])
