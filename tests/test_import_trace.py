@@ -139,7 +139,7 @@ def test_the_export_itself_is_never_overwritten(run, tmp_path):
     text = "".join(f"{a},0.001\n" for a in range(0, 360, 2))
     source.write_text(text)
     result = run("import-trace", str(source), "--radius", "100", "--direction", "cw", "-o", str(source))
-    assert result.exit_code == 2 and "is the export itself" in result.stderr
+    assert result.exit_code == 2 and "is the input" in result.stderr and "nothing was written" in result.stderr
     assert source.read_text() == text
 
 
