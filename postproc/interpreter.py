@@ -66,6 +66,9 @@ _MOTION_KIND = {G.G00: RAPID, G.G01: LINE, G.G02: ARC, G.G03: ARC, G.G32: THREAD
                 G.CIRCULAR_THREAD: THREAD}
 _UNMODELLED_REGION = -1  #: _skip_until while a mode that cannot be modelled is in force, up to its cancel code
 _CYCLE_KIND = {G.TURN_CYCLE: CYCLE, G.FACE_CYCLE: CYCLE, G.THREAD_CYCLE: THREAD}
+#: The words that make a G02/G03 block an arc: the end point on any axis (C, Y, B, A and their
+#: incremental H, V), the centre, the radius. An arc in G17 or G19 moves X or Z on its way to it.
+_ARC_WORDS = frozenset("XZUWCYBAHVIJKR")
 
 
 class _Uninterpretable(Exception):
@@ -827,8 +830,11 @@ class Interpreter:
             raise _Uninterpretable("a drilling cycle (G83-G89) is not modelled")
         if self._has_axis(words) or any(letter in words.unknown for letter in "XZUW"):
             return self._motion(block, words)
-        if self.modal.motion in (G.G02, G.G03) and ("I" in words.values or "K" in words.values):
-            return self._motion(block, words)  # a full circle: the end is the start
+        if self.modal.motion in (G.G02, G.G03):
+            if "I" in words.values or "K" in words.values:
+                return self._motion(block, words)  # a full circle: the end is the start
+            if self.modal.plane != 18 and any(letter in _ARC_WORDS for letter in words.values):
+                return self._motion(block, words)  # an arc in another plane moves X or Z on its way: say so
         return Step(block, (), self.modal)
 
     def _modal_setting(self, modal: Modal, meaning, key: int) -> Modal:
