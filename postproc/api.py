@@ -61,6 +61,7 @@ class Pipeline:
         regions: Sequence[str] = (),
         reporter: Reporter | None = None,
         keep_unplannable: bool = False,
+        macro_values: str = "refuse",
     ):
         if tolerance is not None and not tolerance > 0:
             raise OptionError(f"--tolerance {tolerance}: the tolerance must be positive")
@@ -69,13 +70,15 @@ class Pipeline:
         from .region import Region
 
         Region(list(regions))  # refuse a bad region before anything is read
+        if macro_values not in ("refuse", "keep", "numbers"):
+            raise OptionError(f"--macro-values {macro_values}: expected refuse, keep or numbers")
 
         if isinstance(machine, str):
             machine = profiles.load(machine)
         self.profile = machine or profiles.DEFAULT
         self.reporter = reporter or Reporter()
         self.request = Request(list(plugins), list(ballbar), list(probe), calibration, model, list(options), tolerance,
-                               mode, max_correction, force, list(regions), keep_unplannable)
+                               mode, max_correction, force, list(regions), keep_unplannable, macro_values)
         self.core = None
         if plugins or model:
             from .pipeline import Pipeline as Core

@@ -170,6 +170,7 @@ class Pipeline:
             default_tolerance=self.profile.default_tolerance,
             max_correction=self.max_correction,
             keep_unplannable=self.request.keep_unplannable,
+            macro_values=self.request.macro_values,
         )
         opening, anchor = self._prologue(source)
         steps = interpret_source(source, self.profile, self.reporter, rewriting=True)
@@ -268,6 +269,10 @@ class Pipeline:
         lines.append(f"LARGEST CORRECTION {rewriter.largest:.4f} MM")
         lines.append(f"BLOCKS REPLACED {rewriter.replaced} BY {rewriter.emitted}")
         lines += added
+        if self.request.macro_values != "refuse":
+            lines.append(f"MACRO VALUES {self.request.macro_values}")
+        if self.request.macro_values == "numbers":
+            lines += _numbered_lines(rewriter.macro_lines)
         lines += _unplannable_lines(rewriter.unplannable)
         return "".join(f"({_safe(line)}){eol}" for line in lines)
 
@@ -350,6 +355,15 @@ def _unplannable_lines(unplannable: list[tuple[int, str]], shown: int = 10) -> l
     lines = [f"UNCOMPENSATED LINE {line}: {limit}" for line, limit in unplannable[:shown]]
     if len(unplannable) > shown:
         lines.append(f"UNCOMPENSATED {len(unplannable) - shown} MORE BLOCKS")
+    return lines
+
+
+def _numbered_lines(numbered: list[int], shown: int = 10) -> list[str]:
+    """The provenance of ``--macro-values numbers``: each block whose macro values were written
+    as numbers, by line (an operator who edits a variable must know they no longer follow it)."""
+    lines = [f"MACRO VALUES AS NUMBERS LINE {line}" for line in numbered[:shown]]
+    if len(numbered) > shown:
+        lines.append(f"MACRO VALUES AS NUMBERS IN {len(numbered) - shown} MORE BLOCKS")
     return lines
 
 
