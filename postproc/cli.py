@@ -289,8 +289,11 @@ def check(input, machine):
 @click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
 @click.option("--tolerance", type=float, metavar="MM")
 @click.option("--mode", type=click.Choice(["auto", "arc", "line"]), default="auto")
+@click.option("--macro-values", type=click.Choice(["refuse", "keep", "numbers"]), default="refuse",
+              help="With --plot and a compensator: as compensate takes it.")
 @_reported
-def path(input, machine, output, plot, plugins, ballbar, probe, calibration, model, options, tolerance, mode):
+def path(input, machine, output, plot, plugins, ballbar, probe, calibration, model, options, tolerance, mode,
+         macro_values):
     """The interpreted tool path as CSV, one row per motion; --plot draws it."""
     from .pathcsv import path_rows
     from .program import interpret_source
@@ -312,7 +315,7 @@ def path(input, machine, output, plot, plugins, ballbar, probe, calibration, mod
             compensated = None
             if plugins or model:
                 pipeline = Pipeline(plugins, ballbar, probe, calibration, model, options, tolerance, mode, profile,
-                                    reporter=reporter)
+                                    reporter=reporter, macro_values=macro_values)
                 text = pipeline.compensate_text(source.read_bytes().decode("utf-8", "surrogateescape"), source.name)
                 with Source.from_text(text, source.name) as changed:
                     compensated = [m for s in interpret_source(changed, profile, Reporter()) for m in s.moves

@@ -203,3 +203,15 @@ def test_the_python_api_takes_the_choice_and_refuses_another_word():
     kept = postproc.compensate_text(FLANGE, plugins=["parametric"], ballbar=[CCW, CW], options=["extrapolate=true"],
                                     macro_values="keep")
     assert "G01 X[#504+6.]\n" in kept and "(MACRO VALUES KEEP)" in kept
+
+
+def test_path_plots_the_compensated_path_with_the_same_choice(run, tmp_path):
+    program = tmp_path / "flange.nc"
+    program.write_text(FLANGE)
+    args = ["path", str(program), "--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW, "--option",
+            "extrapolate=true", "--plot", str(tmp_path / "p.svg"), "-o", str(tmp_path / "p.csv")]
+    refused = run(*args)
+    assert refused.exit_code == 4 and "reads a macro variable" in refused.stderr
+    kept = run(*args, "--macro-values", "keep")
+    assert kept.exit_code == 0, kept.stderr
+    assert (tmp_path / "p.svg").stat().st_size > 0
