@@ -23,7 +23,7 @@ from typing import Sequence
 
 from . import bounds
 from . import profile as profiles
-from .diagnostics import Diagnostic, Reporter
+from .diagnostics import Diagnostic, OptionError, Reporter
 from .output import KEEP, Spool, refuse_overwrite
 from .request import Request
 from .source import Source
@@ -62,10 +62,13 @@ class Pipeline:
         regions: Sequence[str] = (),
         reporter: Reporter | None = None,
         keep_unplannable: bool = False,
+        macro_values: str = "refuse",
     ):
         from .region import Region
 
         Region(list(regions))  # refuse a bad region before anything is read
+        if macro_values not in ("refuse", "keep", "numbers"):
+            raise OptionError(f"--macro-values {macro_values}: expected refuse, keep or numbers")
 
         if isinstance(machine, str):
             machine = profiles.load(machine)
@@ -73,7 +76,7 @@ class Pipeline:
         bounds.in_force(tolerance, max_correction, self.profile)
         self.reporter = reporter or Reporter()
         self.request = Request(list(plugins), list(ballbar), list(probe), calibration, model, list(options), tolerance,
-                               mode, max_correction, force, list(regions), keep_unplannable)
+                               mode, max_correction, force, list(regions), keep_unplannable, macro_values)
         self.core = None
         if plugins or model:
             from .pipeline import Pipeline as Core

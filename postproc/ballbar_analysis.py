@@ -62,7 +62,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import ballbar_fit
-from .ballbar_fit import MAX_GAP_DEG, Estimate, arcs_text, shown
+from .ballbar_fit import MAX_GAP_DEG, Estimate, arcs_text
 from .diagnostics import Location, MeasurementError
 from .figures import Figures, figures
 from .measurements.ballbar import BallbarTrace

@@ -71,8 +71,18 @@ class Detail:
     eob_col: int | None  #: column of ``;`` when the block has one
 
 
+#: The detail of a line with no words and no comments the control reads: a blank line, a bare
+#: tape mark, text after the closing ``%`` (kept as written, never parsed).
+NO_DETAIL = Detail((), (), None, None)
+
+
 class Block:
-    """One line of the program."""
+    """One line of the program.
+
+    A block is complete when it is made: it carries its :class:`Detail`, or the function
+    that builds it from the text (``detailer``), so that ``words``, ``comments`` and
+    ``detail`` answer for every block a reader returns.
+    """
 
     __slots__ = ("line", "text", "eol", "kind", "label", "delete", "_codes", "statement", "_detail", "_detailer",
                  "fields")
@@ -99,6 +109,8 @@ class Block:
         self.delete = delete  #: block delete level (1 for ``/``), or None
         self._codes = codes  # None for a canonical block until asked for
         self.statement = statement  #: the macro statement, if any
+        if detail is None and detailer is None:
+            raise TypeError(f"line {line}: a block needs its detail or a detailer")
         self._detail = detail
         self._detailer = detailer
         #: For a block in canonical form (see :mod:`postproc.fastpath`): the values of its

@@ -208,13 +208,17 @@ def _catch(ctx: click.Context, signum: int) -> None:
 @click.option("--force", is_flag=True, help="Compensate a program compensated before; use a failed datum check.")
 @click.option("--keep-unplannable", is_flag=True,
               help="Leave a block that cannot be held within the tolerance uncompensated (a warning) instead of refusing.")
+@click.option("--macro-values", type=click.Choice(["refuse", "keep", "numbers"]), default="refuse", show_default=True,
+              help="A block to compensate whose X, Z, I, K or R reads a macro variable: refuse the program, keep the "
+                   "block uncompensated, or write its values as numbers (it no longer follows the variable).")
 @click.option("--diff", is_flag=True, help="Write a unified diff of the change to stdout instead of the program.")
 @click.option("--check", "check_only", is_flag=True, help="Write nothing; exit 1 if the program would change.")
 @click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True, help="Programs compensated at once.")
 @click.option("--report", "report_file", metavar="FILE", help="Write what each compensator fitted, and how well, as JSON.")
 @_reported
 def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, model, machine, tolerance, mode,
-               options, regions, max_correction, force, keep_unplannable, diff, check_only, jobs, report_file):
+               options, regions, max_correction, force, keep_unplannable, macro_values, diff, check_only, jobs,
+               report_file):
     """Compensate part programs; with no compensator, write the input back byte for byte."""
     from .api import Pipeline
 
@@ -229,6 +233,8 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
         raise UsageError("--option was given but no compensator (--plugin) to take it")
     if regions and not plugins and not model:
         raise UsageError("--region was given but no compensator (--plugin) to compensate it")
+    if macro_values != "refuse" and not plugins and not model:
+        raise UsageError("--macro-values was given but no compensator (--plugin) to compensate the blocks")
     if (diff or check_only) and (output or out_dir):
         raise UsageError("--diff and --check write no program: give no -o or --out-dir")
     destinations = _destinations(inputs, out_dir) if out_dir else []
@@ -241,7 +247,8 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
     workers = _workers(jobs, len(inputs)) if out_dir else 1
     reporter = Reporter(sys.stderr)
     pipeline = Pipeline(plugins, ballbar, probe, calibration, model, options, tolerance, mode, _profile(machine),
-                        max_correction, force, regions, reporter, keep_unplannable=keep_unplannable)
+                        max_correction, force, regions, reporter, keep_unplannable=keep_unplannable,
+                        macro_values=macro_values)
     if diff or check_only:
         changed = [name for name in inputs if _review(pipeline, name, diff)]
         _nothing_applied(pipeline, reporter, written=False)
@@ -441,8 +448,11 @@ def check(input, machine):
 @click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
 @click.option("--tolerance", type=FINITE, metavar="MM")
 @click.option("--mode", type=click.Choice(["auto", "arc", "line"]), default="auto")
+@click.option("--macro-values", type=click.Choice(["refuse", "keep", "numbers"]), default="refuse",
+              help="With --plot and a compensator: as compensate takes it.")
 @_reported
-def path(input, machine, output, plot, plugins, ballbar, probe, calibration, model, options, tolerance, mode):
+def path(input, machine, output, plot, plugins, ballbar, probe, calibration, model, options, tolerance, mode,
+         macro_values):
     """The interpreted tool path as CSV, one row per motion; --plot draws it."""
     from .pathcsv import path_rows
     from .program import interpret_source
@@ -459,7 +469,7 @@ def path(input, machine, output, plot, plugins, ballbar, probe, calibration, mod
         from .api import Pipeline
 
         pipeline = Pipeline(plugins, ballbar, probe, calibration, model, options, tolerance, mode, profile,
-                            reporter=reporter)
+                            reporter=reporter, macro_values=macro_values)
     with Source(input) as source, Spool(output or STDOUT) as spool:
         for line in path_rows(interpret_source(source, profile, reporter)):
             spool.write(line.encode() + b"\n")

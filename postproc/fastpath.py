@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import re
 
-from .blocks import BLANK, BLOCK, HEADER, TAPE, Block, Comment, Detail, Word
+from .blocks import BLANK, BLOCK, HEADER, NO_DETAIL, TAPE, Block, Comment, Detail, Word
 
 # Canonical values: lengths with their decimal point (no least-input-increment scaling) and
 # at most 8 digits (no significant-digit alarm); a feed of at most 8 digits. ASCII digits only.
@@ -49,7 +49,6 @@ _TAIL_COMMENT = re.compile(r"\([^()\r\n]*\)")
 _WORD = re.compile(r"([A-Z])[ \t]*([+-]?(?:\d+\.?\d*|\.\d+))", re.ASCII)
 _WORD_SPELLING = re.compile(r"([A-Za-z])[ \t]*([+-]?(?:\d+\.?\d*|\.\d+))", re.ASCII)
 _fullmatch = _ORDINARY.fullmatch
-_EMPTY = Detail((), (), None, None)
 _findall = _WORD.findall
 
 
@@ -71,7 +70,7 @@ def read_ordinary(text: str, line: int, eol: str) -> Block | None:
     if words:
         codes = tuple(_findall(words if words.isupper() else words.upper()))
     elif label is None and comment is None and eob is None:
-        return Block(line, text, eol, BLANK, None, None, (), None, _EMPTY)
+        return Block(line, text, eol, BLANK, None, None, (), None, NO_DETAIL)
     else:
         codes = ()
     return Block(line, text, eol, BLOCK, None if label is None else int(label), None, codes, None, None, detail_of_ordinary)
@@ -107,7 +106,7 @@ def _comments(match: re.Match, text: str) -> tuple[Comment, ...]:
 def _program_start(text: str, line: int, eol: str) -> Block | None:
     """A ``%`` tape mark, or a program number ``O1234`` with at most a simple comment."""
     if _TAPE.fullmatch(text):
-        return Block(line, text, eol, TAPE, None, None, (), None, _EMPTY)
+        return Block(line, text, eol, TAPE, None, None, (), None, NO_DETAIL)
     match = _HEADER.fullmatch(text)
     if match is None:
         return None

@@ -66,6 +66,9 @@ _MOTION_KIND = {G.G00: RAPID, G.G01: LINE, G.G02: ARC, G.G03: ARC, G.G32: THREAD
                 G.CIRCULAR_THREAD: THREAD}
 _UNMODELLED_REGION = -1  #: _skip_until while a mode that cannot be modelled is in force, up to its cancel code
 _CYCLE_KIND = {G.TURN_CYCLE: CYCLE, G.FACE_CYCLE: CYCLE, G.THREAD_CYCLE: THREAD}
+#: The words that make a G02/G03 block an arc: the end point on any axis (C, Y, B, A and their
+#: incremental H, V), the centre, the radius. An arc in G17 or G19 moves X or Z on its way to it.
+_ARC_WORDS = frozenset("XZUWCYBAHVIJKR")
 
 
 class _Uninterpretable(Exception):
@@ -514,7 +517,7 @@ class Interpreter:
                 if feed is None or feed == 0.0 or "R" in values or "I" in values or "K" in values:
                     return None
             elif motion != G.G00:
-                if modal.plane != 18 or self.x is None or self.z is None:
+                if feed is None or feed == 0.0 or modal.plane != 18 or self.x is None or self.z is None:
                     return None
         elif "I" in values or "K" in values or "R" in values:
             return None
@@ -571,7 +574,7 @@ class Interpreter:
         elif motion == 10:
             if feed is None or feed == 0.0 or i is not None or k is not None or r is not None:
                 return None
-        elif motion != 0 and (modal.plane != 18 or self.x is None or self.z is None):
+        elif motion != 0 and (feed is None or feed == 0.0 or modal.plane != 18 or self.x is None or self.z is None):
             return None
         if feed != modal.feed:
             modal = self._with(modal, "feed", feed)
@@ -823,11 +826,15 @@ class Interpreter:
         if self._modal_macro and self._has_axis(words):
             raise _Uninterpretable("a modal macro call (G66) runs with this move")
         if self._drilling and self._has_axis(words):
+            self._need_feed(block, words, CYCLE, G.DRILL)
             raise _Uninterpretable("a drilling cycle (G83-G89) is not modelled")
         if self._has_axis(words) or any(letter in words.unknown for letter in "XZUW"):
             return self._motion(block, words)
-        if self.modal.motion in (G.G02, G.G03) and ("I" in words.values or "K" in words.values):
-            return self._motion(block, words)  # a full circle: the end is the start
+        if self.modal.motion in (G.G02, G.G03):
+            if "I" in words.values or "K" in words.values:
+                return self._motion(block, words)  # a full circle: the end is the start
+            if self.modal.plane != 18 and any(letter in _ARC_WORDS for letter in words.values):
+                return self._motion(block, words)  # an arc in another plane moves X or Z on its way: say so
         return Step(block, (), self.modal)
 
     def _modal_setting(self, modal: Modal, meaning, key: int) -> Modal:
@@ -959,7 +966,10 @@ class Interpreter:
                 target=(x1, z1),
             )
         if isinstance(motion, str):
+            self._need_feed(block, words, _CYCLE_KIND[motion], motion)
             return self._single_cycle(block, words, motion, x1, z1)
+        kind = _MOTION_KIND[motion]
+        self._need_feed(block, words, kind, motion)
         if motion in (G.G02, G.G03):
             if self.modal.plane != 18:
                 raise _Uninterpretable(f"an arc in plane G{self.modal.plane}, not the lathe's ZX plane (G18)")
@@ -972,21 +982,42 @@ class Interpreter:
                 )
         if "C" in values and "C" not in self.profile.axes:
             raise _Uninterpretable("C in a motion block: chamfering by parameter, or a C axis", self._col(block, "C"))
-        kind = _MOTION_KIND[motion]
-        if kind == LINE and self.modal.feed is None and "F" not in words.unknown and not self._feed_warned:
-            self._feed_warned = True
-            self.reporter.warn(
-                "feed move before any F word: the control uses the feed an earlier program left, or alarms (PS0011)",
-                self._location(block, self._first_col(block)),
-            )
-        elif kind == LINE and self.modal.feed == 0.0:
-            raise InterpretationError("feed move with feed rate F0 (FANUC alarm PS0011)",
-                                      self._location(block, self._first_col(block)))
         move = self._move(kind, block, x1, z1, exact=None not in (x1, z1))
         self.x, self.z = x1, z1
         step = Step(block, (move,), self.modal)
         self._note_corner(step, block, values)
         return step
+
+    def _need_feed(self, block: Block, words: _Words, kind: str, meaning) -> None:
+        """A cutting move, a cycle's cut or a thread runs at the F in force (a thread's lead):
+        F0 is the control's alarm PS0011, wherever it was set; no F at all yet is a warning (the
+        control runs at the F an earlier program left, or alarms). A rapid needs none; a thread
+        whose lead an E word gives needs no F. ``meaning``: the motion mode or one-shot meaning
+        of the code that cuts (named in the message)."""
+        if kind == RAPID or "F" in words.unknown or (kind == THREAD and words.values.get("E")):
+            return
+        feed = self.modal.feed
+        if feed is None:
+            if not self._feed_warned:
+                self._feed_warned = True
+                what = "threading" if kind == THREAD else "feed move"
+                self.reporter.warn(f"{what} before any F word: the control uses the F an earlier program left, or "
+                                   "alarms (PS0011)", self._location(block, self._first_col(block)))
+            return
+        if feed != 0.0:
+            return
+        if kind in (LINE, ARC):
+            what = "feed move with feed rate F0"
+        else:
+            what = f"{'threading with lead' if kind == THREAD else 'cycle with feed rate'} F0"
+            key = next((key for key in words.g if self.table.get(key, (None, None))[1] == meaning), None)
+            if key is None and any(entry == (G.MOTION, meaning) for entry in self.table.values()):
+                key = G.motion_code(self.profile.gcode_system, meaning)  # modal: the code in force
+            if key is not None:
+                what = f"{G.code_name(key)}: {what}"
+        col = self._col(block, "F")
+        raise InterpretationError(f"{what} (FANUC alarm PS0011)",
+                                  self._location(block, self._first_col(block) if col is None else col))
 
     def _arc(self, block: Block, values: dict[str, float], cw: bool, x1, z1) -> Step:
         xc, zc = self._arc_centre(block, values, cw, x1, z1)
@@ -1095,6 +1126,8 @@ class Interpreter:
             self.x, self.z = x1, z1
             return Step(block, (move,), self.modal)
         if meaning in (G.SKIP, G.AUTO_OFFSET):
+            if meaning == G.SKIP:  # G31 moves at the F in force until the signal (G36, G37: by parameter)
+                self._need_feed(block, words, LINE, meaning)
             x1, z1 = self._target(words)
             move = self._move(LINE, block, None if x1 != self.x else x1, None if z1 != self.z else z1, exact=False)
             self.x, self.z = move.x1, move.z1
@@ -1115,6 +1148,7 @@ class Interpreter:
             if not self._has_axis(words):
                 return Step(block, (), self.modal)  # the first block of the two-block format: parameters only
             kind = THREAD if meaning == G.THREAD_MULTI else CYCLE
+            self._need_feed(block, words, kind, meaning)
             move = self._move(kind, block, self.x, self.z, exact=None not in (self.x, self.z))
             return Step(block, (move,), self.modal)
         raise AssertionError(meaning)
@@ -1169,6 +1203,8 @@ class Interpreter:
                 raise InterpretationError(f"{name} needs P and Q: the first and last blocks of its contour",
                                           self._location(block, self._col(block, "G")))
             return Step(block, (), self.modal)  # first block of the two-block format: depth and retract only
+        if meaning != G.FINISH:  # roughing runs at the cycle's F (G70 at the F of its contour blocks)
+            self._need_feed(block, words, CYCLE, meaning)
         p, q = int(values["P"]), int(values["Q"])
         p_line = self._label_line(block, "P", p, name)
         q_line = self._label_line(block, "Q", q, name)

@@ -111,8 +111,9 @@ class Spool:
     """A file with no name until :meth:`commit` makes it the output.
 
     Where the system allows (Linux ``O_TMPFILE``), the spool is an anonymous file in the
-    destination's directory: a run killed at any moment, even by SIGKILL, leaves nothing behind.
-    Elsewhere it is a hidden temporary file, removed on every error the process survives.
+    destination's directory: a run killed at any moment, even by SIGKILL, leaves nothing behind
+    (unless ``/proc`` cannot name it: see :meth:`_name`). Elsewhere it is a hidden temporary
+    file, removed on every error the process survives.
     """
 
     def __init__(self, given: str | None = STDOUT):
@@ -223,8 +224,13 @@ class Spool:
         self.discard()
 
     def _name(self) -> None:
-        """Give the anonymous spool a name: a link to it, or (where links to /proc are not allowed)
-        a copy made in the last moment of the run."""
+        """Give the anonymous spool a name: a link to it, or (where links to /proc are not allowed,
+        as in some sandboxes: EXDEV) a copy made in the last moment of the run.
+
+        A copy has a name while it is written, so a run killed then (SIGKILL) leaves it behind.
+        Its name says what it is, ``.part.nc.postproc-PID-XXXX.partial``, and the next run that
+        writes the same output removes those whose process is gone: never the output itself,
+        which is replaced only by a complete copy."""
         prefix = f".{os.path.basename(self.target.path)}.postproc-"
         candidate = os.path.join(self.directory, f"{prefix}{os.getpid()}.tmp")
         try:
@@ -233,7 +239,8 @@ class Spool:
             return
         except OSError:
             pass
-        fd, self.path = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=self.directory)
+        _remove_dead_partials(self.directory, prefix)
+        fd, self.path = tempfile.mkstemp(prefix=f"{prefix}{os.getpid()}-", suffix=PARTIAL, dir=self.directory)
         with os.fdopen(fd, "wb") as named:
             self.file.seek(0)
             shutil.copyfileobj(self.file, named)
@@ -266,6 +273,37 @@ def _descriptor(stream) -> int | None:
         return stream.fileno()
     except (AttributeError, OSError, ValueError):
         return None
+
+
+PARTIAL = ".partial"  #: the suffix of a spool copy while it is written (see Spool._name)
+
+
+def _remove_dead_partials(directory: str, prefix: str) -> None:
+    """Remove the partial copies (``PREFIX<pid>-XXXX.partial``) that runs killed while copying left
+    beside this output, those of processes that no longer exist."""
+    try:
+        names = [entry.name for entry in os.scandir(directory)
+                 if entry.name.startswith(prefix) and entry.name.endswith(PARTIAL)]
+    except OSError:
+        return
+    for name in names:
+        pid = name[len(prefix):].split("-", 1)[0]
+        if not pid.isdigit() or int(pid) == os.getpid() or _alive(int(pid)):
+            continue
+        try:
+            os.unlink(os.path.join(directory, name))
+        except OSError:
+            pass
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process, say: alive
+        return True
+    return True
 
 
 def _keep_mode(spooled: str, target: str) -> None:

@@ -168,6 +168,7 @@ class Pipeline:
             default_tolerance=self.profile.default_tolerance,
             max_correction=self.max_correction,
             keep_unplannable=self.request.keep_unplannable,
+            macro_values=self.request.macro_values,
         )
         opening, anchor = self._prologue(source)
         steps = interpret_source(source, self.profile, self.reporter, rewriting=True)
@@ -283,6 +284,10 @@ class Pipeline:
         lines.append(f"LARGEST CORRECTION {rewriter.largest:.4f} MM")
         lines.append(f"BLOCKS REPLACED {rewriter.replaced} BY {rewriter.emitted}")
         lines += added
+        if self.request.macro_values != "refuse":
+            lines.append(f"MACRO VALUES {self.request.macro_values}")
+        if self.request.macro_values == "numbers":
+            lines += _numbered_lines(rewriter.macro_lines)
         lines += _unplannable_lines(rewriter.unplannable)
         return "".join(f"({_safe(line)}){eol}" for line in lines)
 
@@ -401,6 +406,15 @@ def _compensated_before(source: Source) -> tuple[int, int, str] | None:
             at = lowered.find(b"postproc", at + 1)
         line += count_lines(chunk, 0, len(chunk))
     return None
+
+
+def _numbered_lines(numbered: list[int], shown: int = 10) -> list[str]:
+    """The provenance of ``--macro-values numbers``: each block whose macro values were written
+    as numbers, by line (an operator who edits a variable must know they no longer follow it)."""
+    lines = [f"MACRO VALUES AS NUMBERS LINE {line}" for line in numbered[:shown]]
+    if len(numbered) > shown:
+        lines.append(f"MACRO VALUES AS NUMBERS IN {len(numbered) - shown} MORE BLOCKS")
+    return lines
 
 
 def _safe(text: str) -> str:

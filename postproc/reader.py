@@ -16,7 +16,7 @@ from __future__ import annotations
 import re
 from typing import Iterable, Iterator
 
-from .blocks import BLANK, BLOCK, TAPE, TRAILER, Block, Detail
+from .blocks import BLANK, BLOCK, NO_DETAIL, TAPE, TRAILER, Block
 from .diagnostics import Location, Reporter
 from .fastpath import canonical_block, canonical_fields, read_ordinary
 
@@ -44,7 +44,7 @@ def read_blocks(lines: Iterable[str], file: str, reporter: Reporter | None = Non
             if text.strip() and reporter is not None and ended is True:
                 reporter.warn("text after the closing '%' is never read by the control", Location(file, line, 1, text))
                 ended = "warned"
-            yield Block(line, text, eol, TRAILER)
+            yield Block(line, text, eol, TRAILER, detail=NO_DETAIL)
             continue
         if text:
             match = canonical_fields(text)
@@ -98,7 +98,7 @@ def _tape_mark(text: str, line: int, eol: str, file: str, reporter: Reporter | N
             seen = f"{program.group(1).strip()} is not seen by the control" if program else "it is never run"
             reporter.warn(f"the control skips what follows '%' up to the end of the line (label skip): {seen}; "
                           "the program takes the number it is given when it is read in", where)
-    return Block(line, text, eol, TAPE, detail=Detail((), (), None, None))
+    return Block(line, text, eol, TAPE, detail=NO_DETAIL)
 
 
 def _note_spaced_numbers(block: Block, file: str, reporter: Reporter) -> None:

@@ -24,3 +24,4 @@ class Request:
     force: bool = False
     regions: list[str] = field(default_factory=list)
     keep_unplannable: bool = False  #: leave blocks that cannot be held uncompensated instead of refusing
+    macro_values: str = "refuse"  #: blocks whose geometry reads macro variables: refuse, keep or numbers

@@ -45,6 +45,12 @@ from .segmenter import (RADIUS_CHECK, RESOLUTION, TOLERANCE, Cut, Limits, Plan, 
                         measure_bends, plan, sample_params)
 
 JOIN = 1e-9  #: nominal points closer than this are the same point
+#: What becomes of a block whose geometry words read macro variables (``X[#504+6.]``) when it
+#: would be rewritten: the run is refused (the default), it is left uncompensated, or its values
+#: are written as numbers (the block then no longer follows the variables).
+REFUSE, KEEP, NUMBERS = "refuse", "keep", "numbers"
+MACRO_VALUES = (REFUSE, KEEP, NUMBERS)
+NAMED = 5  #: blocks named one by one in the warnings about macro values; the rest are counted
 STEPS = (0.0005, 0.001)  #: the output grid's x and z steps (radius mm) of a metric diameter program
 BATCH = 256  #: steps read ahead so that their pieces are corrected in one call
 
@@ -237,6 +243,7 @@ class Settings:
     default_tolerance: Callable[[bool], float] = lambda inch: 0.001
     max_correction: float = math.inf  #: mm; a larger correction is refused
     keep_unplannable: bool = False  #: leave a block that cannot be held uncompensated, with a warning
+    macro_values: str = REFUSE  #: a block whose geometry reads macro variables: REFUSE, KEEP or NUMBERS
 
 
 class Rewriter:
@@ -257,6 +264,7 @@ class Rewriter:
         self.emitted = 0  #: blocks written for them
         self.worst = 0.0  #: largest measured deviation from a target, mm
         self.unplannable: list[tuple[int, str]] = []  #: (line, limit) of each block left uncompensated
+        self.macro_lines: list[int] = []  #: blocks whose macro values were written as numbers, or kept for them
         self._contour: tuple[list[Cut], list[Cut]] | None = None
         self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
         self._checker: Interpreter | None = None  # reads replacements back (the self-check)
@@ -288,6 +296,11 @@ class Rewriter:
         if previous is not None:
             self._join(previous, None)
         yield from self._flush(window)
+        if len(self.macro_lines) > NAMED:
+            done = ("left uncompensated" if self.settings.macro_values == KEEP
+                    else "written with their macro values as numbers")
+            self.reporter.warn(f"{len(self.macro_lines)} blocks in all {done} (--macro-values "
+                               f"{self.settings.macro_values}); the first {NAMED} are named above", Location(self.file))
 
     def _corrected(self, steps: Iterable[Step]) -> Iterator[list[Entry]]:
         """The steps in batches of at most BATCH, each motion step with its edits: the pieces
@@ -355,7 +368,7 @@ class Rewriter:
             first += len(parts)
             if all(shift is None for shift in mine):
                 continue
-            targets, moved = [], False
+            targets, largest = [], 0.0
             for piece, shift in zip(parts, mine):
                 if shift is None:
                     shift = np.zeros((len(piece.t), 2))
@@ -365,9 +378,12 @@ class Rewriter:
                         entry.refusal = SafetyError(f"a correction of {size:.4f} mm exceeds the maximum correction "
                                                     f"{self.settings.max_correction:g} mm (--max-correction)",
                                                     Location(self.file, piece.move.line))
-                    self.largest = max(self.largest, size)
-                    moved = moved or size > 0.0
+                    largest = max(largest, size)
                 targets.append(Target.along(piece.segment, piece.t, shift, piece.points))
+            moved = largest > 0.0
+            if moved and (entry.kept or self._macro_kept(entry)):
+                continue  # left as it is: its correction is not applied
+            self.largest = max(self.largest, largest)
             if moved:
                 edit = Edit(parts[0].move, _merge_continuous(targets, self._tolerance(entry.step) / 10.0))
                 entry.edits[index] = edit
@@ -394,8 +410,12 @@ class Rewriter:
             and (last_move.role == CONTOUR) == (first_move.role == CONTOUR)
         )
         if self._has_corner(previous.step.block) and first_edit is not None and not previous.edited:
-            self._explicit(previous)
-            last_edit = previous.edits[previous.step.moves.index(last_move)]
+            if self._macro_kept(previous, entry):  # the corner cannot be written out: the follower stays too
+                entry.edits = [None] * len(entry.step.moves)
+                first_edit = None
+            else:
+                self._explicit(previous)
+                last_edit = previous.edits[previous.step.moves.index(last_move)]
         if not connected:  # the next move does not start from here (a contour's end, a jump): nothing to join
             return
         nominal = (last_move.x1, last_move.z1)
@@ -432,6 +452,7 @@ class Rewriter:
             and step.block.delete is None
             and not self._has_corner(step.block)
             and step.block.statement is None
+            and (self.settings.macro_values == NUMBERS or macro_word(step.block) is None)
             and (step.block.fields is not None  # canonical: no G code but G00-G03
                  or not any(letter == "G" and _group(value, self.settings.system) in (G.ONE_SHOT, None)
                             for letter, value in step.block.codes))
@@ -561,6 +582,11 @@ class Rewriter:
             self._follow_contour(step, None)
             yield block.raw
             return
+        if self.settings.macro_values == NUMBERS:
+            word = macro_word(block)
+            if word is not None:
+                self._said_macro(block, word, "its macro values are written as numbers (--macro-values numbers): "
+                                              "the block no longer follows the variables it reads")
         cuts = self._cuts(entry)
         self._within_limits(step, cuts)
         writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
@@ -610,6 +636,40 @@ class Rewriter:
                 edit.spans.append((first, len(cuts)))
             add(edit.lead_out)
         return cuts
+
+    def _macro_kept(self, entry: Entry, follower: Entry | None = None) -> bool:
+        """Whether a block whose geometry reads macro variables is to be left as it is (KEEP),
+        or the run refused (REFUSE, the error raised in program order); False when it may be
+        rewritten (NUMBERS, or no such word). ``follower``: the block that is left uncompensated
+        instead, for a corner block that would have to be written out to meet it."""
+        word = macro_word(entry.step.block)
+        policy = self.settings.macro_values
+        if word is None or policy == NUMBERS:
+            return False
+        block = entry.step.block
+        where = Location(self.file, block.line, word.col + 1, block.text)
+        if policy == REFUSE:
+            if follower is not None:
+                raise _macro_refusal(word, where, f" (its corner meets the compensated block on line "
+                                                  f"{follower.step.block.line})")
+            if entry.refusal is None:
+                entry.refusal = _macro_refusal(word, where, "")
+            return True
+        kept = follower or entry
+        kept.kept = True
+        self.unplannable.append((kept.step.block.line, "macro values"))
+        reason = (f"the corner of line {block.line}, whose {word.text} reads a macro variable, meets it"
+                  if follower is not None else f"{word.text} reads a macro variable")
+        self._said_macro(kept.step.block, word if follower is None else None,
+                         f"block left uncompensated (--macro-values keep): {reason}")
+        return True
+
+    def _said_macro(self, block: Block, word, message: str) -> None:
+        """One of the blocks the macro-value policy acted on: the first few are named."""
+        self.macro_lines.append(block.line)
+        if len(self.macro_lines) <= NAMED:
+            col = word.col if word is not None else (block.words[0].col if block.words else 0)
+            self.reporter.warn(message, Location(self.file, block.line, col + 1, block.text))
 
     def _plan_edits(self, entry: Entry) -> None:
         """Plan the blocks of an edited step before its joins are settled. A move that cannot
@@ -840,6 +900,33 @@ _REMEDIES = {
     INTERFERENCE: "the tool's own nose radius as nose_radius_mm in the machine profile",
 }
 _WORDS_OF = {RESOLUTION: "XZUW", RADIUS_CHECK: "RIK", TOLERANCE: "XZUW", BLOCK_TIME: "F", INTERFERENCE: "XZUW"}
+
+
+_REWRITTEN = frozenset("GXZUWIKR") | {",C", ",R", ",A"}  #: words a replacement writes anew (the rest as written)
+
+
+def macro_word(block: Block):
+    """The first word a replacement would write anew (geometry, motion code) whose value reads
+    a macro variable (``X[#504+6.]``), or None. A constant expression (``X[2*10.]``) reads none:
+    written as a number it means what it meant."""
+    if block.fields is not None:  # a canonical block: plain numbers only
+        return None
+    if all(type(value) is str for _, value in block.codes):
+        return None
+    from .macro import variables_read
+
+    for word in block.words:
+        if word.letter in _REWRITTEN and type(word.value) is not str and variables_read(word.value):
+            return word
+    return None
+
+
+def _macro_refusal(word, where: Location, detail: str) -> SafetyError:
+    return SafetyError(
+        f"{word.text} reads a macro variable: compensating this block{detail} writes its value as a number, and "
+        "the block would no longer follow the variable; give --macro-values keep to leave such blocks "
+        "uncompensated, or --macro-values numbers to write them as numbers (the compensated program then holds "
+        "only for the values the program gives its variables)", where)
 
 
 def _rounded_up(tolerance: float) -> str:

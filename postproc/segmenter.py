@@ -301,10 +301,12 @@ class Segmenter:
         self._backwards = np.flatnonzero(self.u[1:] - self.u[:-1] < -1e-9).tolist()  # k where u[k + 1] < u[k]
         self.tol = limits.tolerance
         # A chord sampled every h and read linearly across an arc's frame misses up to h^2/(8r):
-        # keep that under a hundredth of the tolerance on small arcs.
+        # keep that under a hundredth of the tolerance on small arcs (arc cuts: see _spacing).
         self.spacing = limits.spacing
+        self._frame_curvature = 0.0
         if isinstance(target.nominal, Arc):
             self.spacing = min(limits.spacing, math.sqrt(8.0 * target.nominal.r * self.tol * 0.01))
+            self._frame_curvature = 1.0 / target.nominal.r
         last = len(target.t) - 1
         self.last = last
         self.vertices: dict[int, tuple[float, float]] = {}
@@ -319,9 +321,30 @@ class Segmenter:
         at = bisect_left(backwards, i)
         return at == len(backwards) or backwards[at] >= j
 
+    def _spacing(self, cut: Cut) -> float:
+        """How far apart to sample a cut so that reading it linearly across the frame misses
+        less than a hundredth of the tolerance: h^2 k / 8, k the curvature of the cut as the
+        frame draws it. A line across an arc's frame bends by the frame's curvature (the
+        frame's own spacing); an arc by the difference of its curvature and the frame's when it
+        turns the same way, their sum when it turns the other. A small arc fitted to a wavy
+        target (radius 0.3 mm on a 5 mm arc) needs samples far closer than its frame's."""
+        if cut.xc is None:
+            return self.spacing
+        radius = math.hypot(cut.x0 - cut.xc, cut.z0 - cut.zc)
+        curvature = 1.0 / radius
+        frame = self._frame_curvature
+        if frame:
+            mid_x, mid_z = (cut.x0 + cut.x1) / 2.0, (cut.z0 + cut.z1) / 2.0
+            centre = self.frame.centre
+            same = (cut.xc - mid_x) * (centre[0] - mid_x) + (cut.zc - mid_z) * (centre[1] - mid_z) > 0.0
+            curvature = abs(curvature - frame) if same else curvature + frame
+        if curvature * self.spacing * self.spacing <= 0.08 * self.tol:
+            return self.spacing
+        return math.sqrt(0.08 * self.tol / curvature)
+
     def _measure(self, cut: Cut, i: int, j: int) -> float:
         """Deviation of one cut from the target samples i..j (and its end points)."""
-        pu, pv = self.frame.path_uv(cut, self.spacing)
+        pu, pv = self.frame.path_uv(cut, self._spacing(cut))
         deviation = _deviation(self.u[i : j + 1], self.v[i : j + 1], pu, pv, self._graph(i, j))
         ends = max(
             math.dist(cut.start, self.target.points[i].tolist()),
@@ -331,7 +354,7 @@ class Segmenter:
 
     def measure(self, cuts: list[Cut]) -> float:
         """Deviation of a whole plan from the whole target."""
-        pu, pv = self.frame.uv(np.concatenate([cut.sample(self.spacing) for cut in cuts]))
+        pu, pv = self.frame.uv(np.concatenate([cut.sample(self._spacing(cut)) for cut in cuts]))
         deviation = _deviation(self.u, self.v, pu, pv, self._graph(0, self.last))
         ends = max(math.dist(cuts[0].start, self.target.start), math.dist(cuts[-1].end, self.target.end))
         return max(deviation, ends)
@@ -611,7 +634,7 @@ class Segmenter:
 
     def _measure_chord(self, cut: Cut, i: int, j: int) -> float:
         """A chord's vertices stand off the target on purpose: measure only across it."""
-        pu, pv = self.frame.path_uv(cut, self.spacing)
+        pu, pv = self.frame.path_uv(cut, self._spacing(cut))
         deviation = _deviation(self.u[i : j + 1], self.v[i : j + 1], pu, pv, self._graph(i, j))
         if i == 0:
             deviation = max(deviation, math.dist(cut.start, self.target.start))

@@ -18,7 +18,7 @@ from lark import Lark, Token, Tree
 from lark.exceptions import LarkError, UnexpectedCharacters, UnexpectedEOF, UnexpectedToken
 
 from . import macro
-from .blocks import BLANK, BLOCK, HEADER, TAPE, Block, Comment, Detail, Word
+from .blocks import BLANK, BLOCK, HEADER, NO_DETAIL, TAPE, Block, Comment, Detail, Word
 from .diagnostics import Location, ProgramSyntaxError
 
 
@@ -158,7 +158,7 @@ def _block_from_tree(tree: Tree, text: str, line: int, eol: str) -> Block:
     if kind == "program_header":
         return Block(line, text, eol, HEADER, detail=_detail_of(items, text, ()))
     if not items:
-        return Block(line, text, eol, BLANK, detail=Detail((), (), None, None))
+        return Block(line, text, eol, BLANK, detail=NO_DETAIL)
 
     label = delete = statement = None
     words: list[Word] = []

@@ -17,7 +17,6 @@ from hypothesis import strategies as st
 
 from postproc import ballbar_fit
 from postproc.ballbar_analysis import diagnose, model_names
-from postproc.diagnostics import MeasurementError
 from postproc.measurements.ballbar import make_trace
 from support import machines
 

@@ -26,7 +26,25 @@ PROGRAMS = [
     ("M03.\n", "1:1: error: M03.: address M takes no decimal point (FANUC alarm PS0007)"),
     ("G00 X1234567890.\n", "1:5: error: X1234567890.: more than 9 digits (FANUC alarm PS0003)"),
     ("G00 X1. Y5.\n", "1:9: error: address Y: this lathe has no Y axis (axes X, Z; FANUC alarm PS0009)"),
-    ("G00 X1. Z1.\nG01 X2. F0\n", "2:1: error: feed move with feed rate F0 (FANUC alarm PS0011)"),
+    ("G00 X1. Z1.\nG01 X2. F0\n", "2:9: error: feed move with feed rate F0 (FANUC alarm PS0011)"),
+    # every move that cuts at the F in force, or threads at it as its lead: F0 is the same alarm
+    ("G00 X1. Z1.\nF0\nG01 X2.\n", "3:1: error: feed move with feed rate F0 (FANUC alarm PS0011)"),
+    ("G00 X20. Z0.\nG02 X30. Z-5. R5. F0\n", "2:19: error: feed move with feed rate F0 (FANUC alarm PS0011)"),
+    ("G00 X20. Z0. F0.\nG03 X30. Z-5. R5.\n", "2:1: error: feed move with feed rate F0 (FANUC alarm PS0011)"),
+    ("G00 X0. Z0.2\nG32 X0. Z-0.4 F0.000\n", "2:15: error: G32: threading with lead F0 (FANUC alarm PS0011)"),
+    ("G00 X0. Z0.2 F1.5\nG32 Z-10.\nG00 X5.\nF0\nG32 Z-20.\n",
+     "5:1: error: G32: threading with lead F0 (FANUC alarm PS0011)"),
+    ("G00 X0. Z0.2\nG34 Z-10. F0 K0.1\n", "2:11: error: G34: threading with lead F0 (FANUC alarm PS0011)"),
+    ("G00 X30. Z2.\nG92 X20. Z-10. F0\n", "2:16: error: G92: threading with lead F0 (FANUC alarm PS0011)"),
+    ("G00 X30. Z2.\nG76 P010060 Q100 R0.05\nG76 X20. Z-10. P1000 Q300 F0\n",
+     "3:27: error: G76: threading with lead F0 (FANUC alarm PS0011)"),
+    ("G00 X30. Z2.\nG90 X20. Z-10. F0\n", "2:16: error: G90: cycle with feed rate F0 (FANUC alarm PS0011)"),
+    ("G00 X30. Z2.\nG94 X20. Z-1. F.2\nF0\nZ-2.\n", "4:1: error: G94: cycle with feed rate F0 (FANUC alarm PS0011)"),
+    ("G00 X30. Z2.\nG75 R1.\nG75 X20. Z-10. P1000 Q2000 F0\n",
+     "3:28: error: G75: cycle with feed rate F0 (FANUC alarm PS0011)"),
+    ("G00 X30. Z2.\nG71 U1. R0.5\nG71 P10 Q20 U.2 W.1 F0\nN10 G00 X20.\nN20 G01 Z-10. F.1\n",
+     "3:21: error: G71: cycle with feed rate F0 (FANUC alarm PS0011)"),
+    ("G00 X30. Z2.\nG31 X20. F0\n", "2:10: error: feed move with feed rate F0 (FANUC alarm PS0011)"),
     ("G00 X20. Z0. F.1\nG02 X40. Z-10. I5. K0.\n",
      "2:16: error: arc end point is off the circle: radius 5.0000 mm at the start, 11.1803 mm at the end "
      "(limit 0.01 mm, FANUC alarm PS0020)"),
@@ -193,6 +211,20 @@ def test_a_moved_datum_is_refused_for_safety(run, tmp_path):
         "datum_after_z_mm = 13.5 differ by 0.5074 mm, more than repeatability_mm = 0.003")
 
 
+def test_a_block_whose_geometry_reads_a_variable_is_refused_for_safety_unless_a_choice_is_made(run, tmp_path):
+    program = tmp_path / "p.nc"
+    program.write_text("G18 G21 G99\n#504=250\nG00 X300. Z2.\nG01 Z0. F.2\nG01 X[#504+6.]\nG00 X300. Z5.\n")
+    target = tmp_path / "out.nc"
+    result = run("compensate", str(program), "--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW,
+                 "--option", "extrapolate=true", "-o", str(target))
+    assert result.exit_code == 4 and result.stdout_bytes == b"" and not target.exists()
+    assert result.stderr.splitlines()[0] == (
+        f"{program}:5:5: error: X[#504+6.] reads a macro variable: compensating this block writes its value as a "
+        "number, and the block would no longer follow the variable; give --macro-values keep to leave such blocks "
+        "uncompensated, or --macro-values numbers to write them as numbers (the compensated program then holds only "
+        "for the values the program gives its variables)")
+
+
 def test_bad_calibrations(run, tmp_path):
     text = open(CALIBRATION).read()
     off = _probe(tmp_path, text.replace("artifact_radius_mm = 25.4", "artifact_radius_mm = 20"))
@@ -237,6 +269,9 @@ OPTIONS = [
     (["--out-dir", "out", "--jobs", "100000"], 2,
      "postproc: error: --jobs 100000: far more processes than a machine runs at once (at most 1024); give about the "
      "number of CPUs"),
+    (["--macro-values", "numbers"], 2,
+     "postproc: error: --macro-values was given but no compensator (--plugin) to compensate the blocks"),
+    (["--plugin", "parametric", "--ballbar", CCW, "--macro-values", "some"], 2, None),
 ]
 
 
@@ -245,7 +280,10 @@ def test_bad_options(run, tmp_path, monkeypatch, args, code, message):
     monkeypatch.chdir(tmp_path)
     result = run("compensate", HEMISHELL, *args)
     assert result.exit_code == code and result.stdout_bytes == b""
-    assert result.stderr.splitlines()[0] == message
+    if message is None:  # click's own message for a value outside a choice
+        assert "Invalid value for '--macro-values': 'some' is not one of 'refuse', 'keep', 'numbers'." in result.stderr
+    else:
+        assert result.stderr.splitlines()[0] == message
     assert list(tmp_path.iterdir()) == []
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from conftest import corpus
 
 HEMISHELL = b"%\nO1000 (HEMISHELL)\nG18 G21 G99\nT0101\nG00 X0. Z60.\nG01 Z57.15 F0.1\nG03 X114.3 Z0. I0. K-57.15\nG00 X150.\nM30\n%\n"
@@ -177,3 +179,38 @@ def test_jobs_are_capped_at_the_programs_and_cpus_and_say_so(run, tmp_path):
     absurd = run("compensate", *map(str, programs), "--out-dir", str(tmp_path / "x"), "--jobs", "100000")
     assert absurd.exit_code == 2 and not (tmp_path / "x").exists()
     assert run("compensate", *map(str, programs), "--out-dir", str(tmp_path), "--jobs", "0").exit_code == 2
+
+
+EMPTY_WARNING = ("warning: the program has no blocks: nothing in it commands the control (empty, or only tape marks, "
+                 "program numbers, comments and blank lines); did the step that wrote it fail?")
+
+
+@pytest.mark.parametrize("data", [b"", b"\n\n", b"%\n%\n", b"%\r\n(PART 7)\r\n\r\n%\r\n", b"%\nO1234 (NOTHING)\n%\n",
+                                  b"(ONLY A COMMENT)"], ids=["0-bytes", "blank", "tape", "comment-crlf", "o-number",
+                                                              "no-eol"])
+def test_a_program_with_no_blocks_is_given_back_with_a_warning_from_a_file_and_from_stdin(run, tmp_path, data):
+    """An empty program in a post-processing chain most often means a failed CAM step: said
+    once on stderr by check and compensate, whichever way it comes; the identity stays byte for
+    byte (nothing for nothing) and a compensated run writes only its provenance around it."""
+    path = tmp_path / "empty.nc"
+    path.write_bytes(data)
+    for name, stdin in ((str(path), None), ("<stdin>", data)):
+        given = () if stdin is not None else (str(path),)
+        checked = run("check", *given, input=stdin)
+        assert checked.exit_code == 0 and checked.stdout == ""
+        assert checked.stderr.splitlines()[0] == f"{name}: {EMPTY_WARNING}"
+        identity = run("compensate", *given, input=stdin)
+        assert identity.exit_code == 0 and identity.stdout_bytes == data
+        assert identity.stderr.count(EMPTY_WARNING) == 1
+    model = _mixed_model(run, tmp_path)
+    compensated = run("compensate", str(path), "--model", model)
+    assert compensated.exit_code == 0 and compensated.stderr.count(EMPTY_WARNING) == 1
+    out = compensated.stdout_bytes
+    assert b"(POSTPROC " in out and b"(BLOCKS REPLACED 0 BY 0)" in out
+    assert out.replace(b"\r\n", b"\n").endswith(data.replace(b"\r\n", b"\n").split(b"(NOTHING)\n")[-1].lstrip(b"%\n"))
+
+
+@pytest.mark.parametrize("data", [b"M30\n", b"%\nT0101\nM30\n%\n", b"#1 = 5\n"])
+def test_a_program_that_commands_anything_is_not_empty(run, data):
+    result = run("check", input=data)
+    assert result.exit_code == 0 and "no blocks" not in result.stderr

@@ -15,10 +15,11 @@ import re
 import pytest
 
 from conftest import CORPUS, SAMPLES, corpus_cases, corpus_dir, expectations, machine_args
+from postproc.diagnostics import Reporter
 
 FOLDERS = ("fanuc", "fanuc-mill", "malformed", "linuxcnc")
 METADATA = {"README.md", "SOURCES.md", "expectations.toml", ".gitattributes"}
-CHECKS = {"roundtrip", "compensate", "needs-machine", "refused"}
+CHECKS = {"roundtrip", "compensate", "needs-machine", "needs-options", "refused", "arcs-placed"}
 REDISTRIBUTABLE = {"MIT", "BSD-2-Clause", "BSD-3-Clause", "Apache-2.0", "ISC", "Unlicense", "CC0-1.0", "CC-BY-4.0",
                    "CC-BY-SA-4.0", "GPL-2.0-only", "GPL-2.0-or-later", "GPL-3.0-only", "GPL-3.0-or-later",
                    "LGPL-2.1-only", "LGPL-2.1-or-later", "LGPL-3.0-only", "LGPL-3.0-or-later"}
@@ -91,7 +92,8 @@ def model(tmp_path_factory):
 def test_lathe_programs_are_compensated_and_the_output_passes_check(run, model, tmp_path, path, expected):
     target = tmp_path / path.name
     machine = machine_args(tmp_path, expected.get("machine", {}))
-    result = run("compensate", str(path), "--model", str(model), *machine, "-o", str(target))
+    result = run("compensate", str(path), "--model", str(model), *machine, *expected.get("options", []),
+                 "-o", str(target))
     assert result.exit_code == 0, result.stderr
     assert target.read_bytes() != path.read_bytes(), "the model changed nothing"
     checked = run("check", str(target), *machine)
@@ -109,6 +111,39 @@ def test_a_program_that_needs_a_profile_key_is_refused_without_it(run, model, tm
     assert result.exit_code in (3, 4), result.stderr
     assert result.stdout_bytes == b"" and not target.exists()
     assert any(key in result.stderr for key in expected["machine"]), result.stderr
+
+
+@pytest.mark.parametrize("path, expected", [case for case in corpus_cases("fanuc", "needs-options")
+                                            if case.values[1].get("options")])
+def test_a_program_that_needs_an_option_is_refused_without_it(run, model, tmp_path, path, expected):
+    target = tmp_path / path.name
+    machine = machine_args(tmp_path, expected.get("machine", {}))
+    result = run("compensate", str(path), "--model", str(model), *machine, "-o", str(target))
+    assert result.exit_code == 4, result.stderr
+    assert result.stdout_bytes == b"" and not target.exists()
+    assert expected["options"][0] in result.stderr.splitlines()[0]
+
+
+@pytest.mark.parametrize("path, expected", corpus_cases("fanuc", "arcs-placed"))
+def test_every_arc_block_is_placed_or_said(path, expected):
+    """An arc block (G02/G03 in force, an end point, centre or radius) is a move, or a block that
+    passes through uninterpreted (with its warning): never nothing at all."""
+    import dataclasses
+
+    from postproc.gcodes import G02, G03
+    from postproc.profile import DEFAULT
+    from postproc.program import interpret_source
+    from postproc.source import Source
+
+    profile = dataclasses.replace(DEFAULT, **expected.get("machine", {}))
+    reporter = Reporter()
+    with Source(str(path)) as source:
+        for step in interpret_source(source, profile, reporter):
+            arc_words = {letter for letter, _ in step.block.codes} & set("XZUWCYHVIJKR")
+            if step.modal.motion in (G02, G03) and arc_words and not step.block.statement:
+                assert step.moves or not step.interpreted, f"line {step.block.line}: {step.block.text}"
+                if not step.interpreted:
+                    assert any(w.location.line <= step.block.line for w in reporter.warnings)
 
 
 def test_the_corpus_is_the_repository_s_own_unless_overridden(monkeypatch, tmp_path):

@@ -2,15 +2,20 @@
 
 from __future__ import annotations
 
+import errno
 import os
 import resource
+import shutil
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from conftest import REPO
+from postproc.output import PARTIAL, Spool, write_atomically
 
 sys.path.insert(0, str(REPO / "benchmarks"))
 from programs import lathe_program  # noqa: E402
@@ -35,8 +40,61 @@ def test_a_run_killed_mid_write_leaves_the_old_output_and_nothing_else(tmp_path)
         assert content in (b"THE PREVIOUS OUTPUT\n", program.read_bytes())  # all or nothing
         leftovers = [p.name for p in out.iterdir() if p.name != "part.nc"]
         assert leftovers == [] or all(".postproc-" in name for name in leftovers)
-        for name in leftovers:  # a kill in the last instant (the rename) can leave the finished copy only
-            assert (out / name).read_bytes() == program.read_bytes()
+        for name in leftovers:  # a kill in the last instant (the rename) can leave the finished copy, one
+            if not name.endswith(PARTIAL):  # during a copy (where /proc cannot name the spool) a partial one
+                assert (out / name).read_bytes() == program.read_bytes()
+    finished = subprocess.run(COMMAND + ["compensate", str(program), "-o", str(target)], capture_output=True)
+    assert finished.returncode == 0 and target.read_bytes() == program.read_bytes()
+    assert not [p.name for p in out.iterdir() if p.name.endswith(PARTIAL)]  # cleared by the run that finished
+
+
+def _cross_device(*args, **kwargs):
+    """os.link where /proc/self/fd cannot be linked from (EXDEV): the spool's commit copies."""
+    raise OSError(errno.EXDEV, "Invalid cross-device link")
+
+
+def _killed_while_copying(target: Path, data: bytes) -> int:
+    """In a child process: a spool whose naming through /proc fails (as across devices), killed
+    by SIGKILL halfway through the copy its commit makes. The child's exit status."""
+    pid = os.fork()
+    if pid == 0:  # the child: never returns
+        try:
+            def half_then_killed(source, destination, *args):
+                destination.write(source.read(len(data) // 2))
+                destination.flush()
+                os.kill(os.getpid(), signal.SIGKILL)
+
+            os.link = _cross_device
+            shutil.copyfileobj = half_then_killed
+            with Spool(str(target)) as spool:
+                spool.write(data)
+                spool.commit()
+        finally:
+            os._exit(1)
+    return os.waitpid(pid, 0)[1]
+
+
+def test_a_kill_during_the_commit_copy_leaves_the_output_and_a_partial_the_next_run_removes(tmp_path, monkeypatch):
+    target = tmp_path / "part.nc"
+    target.write_bytes(b"THE PREVIOUS OUTPUT\n")
+    data = b"G01 X10. Z-5.\n" * 50_000
+    with Spool(str(target)) as probe:
+        anonymous = probe.path is None
+        probe.discard()
+    if not anonymous:
+        pytest.skip("no anonymous spool file here (O_TMPFILE): the commit never copies")
+    status = _killed_while_copying(target, data)
+    assert os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGKILL
+    assert target.read_bytes() == b"THE PREVIOUS OUTPUT\n"  # untouched
+    (partial,) = [p for p in tmp_path.iterdir() if p != target]
+    assert partial.name.startswith(".part.nc.postproc-") and partial.name.endswith(PARTIAL)
+    assert 0 < partial.stat().st_size < len(data)  # it was killed mid-copy
+    running = tmp_path / f".part.nc.postproc-{os.getppid()}-abcd{PARTIAL}"  # a live run's copy under way
+    running.write_bytes(b"G01")
+    monkeypatch.setattr(os, "link", _cross_device)
+    write_atomically(str(target), b"THE NEXT OUTPUT\n")  # the same fallback, as on the same machine
+    assert sorted(p.name for p in tmp_path.iterdir()) == [running.name, "part.nc"]
+    assert target.read_bytes() == b"THE NEXT OUTPUT\n"
 
 
 def _limited():

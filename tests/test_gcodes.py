@@ -146,3 +146,39 @@ def test_a_system_b_program_with_g33_is_compensated_around_its_threads(run, tmp_
     assert "G33 Z-20. F1.5" in out  # the thread is written as it was
     assert "G01 Z-20. F0.1" not in out  # the turning pass is compensated
     assert run("check", "-", "--machine", str(machine), input=result.stdout_bytes).exit_code == 0
+
+
+# The block that makes each cutting code cut (arcs with an R; cycles in their two-block form where
+# they have one), with {F} for its feed or lead.
+_CUTS = {G.G01: "{g} X20. Z-10. {F}", G.G02: "{g} X30. Z-5. R5. {F}", G.G03: "{g} X30. Z-5. R5. {F}",
+         G.G32: "{g} Z-10. {F}", G.VARIABLE_LEAD: "{g} Z-10. {F} K0.1", G.CIRCULAR_THREAD: "{g} X30. Z-5. R5. {F}",
+         G.TURN_CYCLE: "{g} X20. Z-10. {F}", G.THREAD_CYCLE: "{g} X20. Z-10. {F}", G.FACE_CYCLE: "{g} X20. Z-1. {F}",
+         G.ROUGH_TURN: "{g} U1. R.5\n{g} P10 Q20 U.2 W.1 {F}\nN10 G00 X20.\nN20 G01 Z-10. F.1",
+         G.ROUGH_FACE: "{g} W1. R.5\n{g} P10 Q20 U.2 W.1 {F}\nN10 G00 Z-2.\nN20 G01 X10. F.1",
+         G.PATTERN: "{g} U1. W1. R2\n{g} P10 Q20 U.2 W.1 {F}\nN10 G00 X20.\nN20 G01 Z-10. F.1",
+         G.FACE_PECK: "{g} R1.\n{g} X20. Z-10. P1000 Q2000 {F}", G.GROOVE: "{g} R1.\n{g} X20. Z-10. P1000 Q2000 {F}",
+         G.THREAD_MULTI: "{g} P010060 Q100 R.05\n{g} X20. Z-10. P1000 Q300 {F}", G.SKIP: "{g} X20. {F}"}
+
+
+def _cutting_codes():
+    """Every code of every system that cuts or threads at the F in force: from the table itself,
+    so that a code added to it is checked too."""
+    cases = []
+    for system, table in G.SYSTEMS.items():
+        for key, (kind, meaning) in sorted(table.items()):
+            if meaning in _CUTS and (kind == G.MOTION or meaning in G.CONTOUR_CYCLES or kind == G.ONE_SHOT):
+                cases.append(pytest.param(system, G.code_name(key), meaning, id=f"{system}-{G.code_name(key)}"))
+    return cases
+
+
+@pytest.mark.parametrize("system, code, meaning", _cutting_codes())
+def test_every_code_that_cuts_refuses_a_zero_feed_or_lead(system, code, meaning):
+    """A FANUC control alarms (PS0011) on a cut or a thread at F0: the same in the block or modal."""
+    from postproc.diagnostics import InterpretationError
+
+    head = f"G18 {'G21 G99' if system == 'A' else ('G21 G95 G90' if system == 'B' else 'G71 G95 G90')}\nG00 X30. Z2.\n"
+    body = _CUTS[meaning].replace("{g}", code)
+    moves(head + body.replace("{F}", "F1.5") + "\n", gcode_system=system)  # a feed: no alarm
+    for program in (head + body.replace("{F}", "F0.000") + "\n", head + "F0\n" + body.replace("{F}", "") + "\n"):
+        with pytest.raises(InterpretationError, match=r"F0 \(FANUC alarm PS0011\)"):
+            moves(program, gcode_system=system)

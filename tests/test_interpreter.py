@@ -283,3 +283,27 @@ def test_full_circle_with_i_k():
 def test_full_circle_without_end_point():
     arc = moves(START + "G01 X20. Z0.\nG03 I0. K5.\n")[-1]
     assert geometry(arc)[2:6] == ((10.0, 0.0), (10.0, 0.0), (10.0, 5.0), "ccw")
+
+
+@pytest.mark.parametrize("plane, arc", [("G17", "G02 C15.257 R30.578"), ("G17", "G03 H30. R20."),
+                                         ("G19", "G02 Y5. R10."), ("G17", "G02 J5.")])
+def test_an_arc_in_another_plane_is_said_and_leaves_the_position_unknown(plane, arc):
+    """Whatever words it has (a C or Y end point, only a radius or a centre), an arc off the ZX
+    plane moves X or Z on its way: it passes through with a warning and nothing after it is
+    placed until an absolute move."""
+    reporter = Reporter()
+    result = steps(f"G18 G21 G99 F0.2\nG00 X100. Z10.\n{plane}\n{arc}\nG01 W-5.\nG18\nG00 X20. Z5.\n", reporter,
+                   axes="XZCY")
+    (warning,) = reporter.warnings
+    assert warning.location.line == 4 and f"an arc in plane {plane}" in warning.message
+    assert not result[3].interpreted
+    after = result[4].moves[0]
+    assert (after.x0, after.z0, after.x1, after.z1) == (None, None, None, None)
+    assert (result[-1].moves[0].x1, result[-1].moves[0].z1) == (10.0, 5.0)
+
+
+def test_a_rotary_move_alone_leaves_x_and_z_where_they_are():
+    reporter = Reporter()
+    result = steps(START + "G01 C90.\nG01 Z0.\n", reporter, axes="XZC")
+    assert reporter.warnings == [] and result[2].moves == ()
+    assert (result[3].moves[0].x0, result[3].moves[0].z0) == (50.0, 10.0)

@@ -4,13 +4,16 @@ and ``;`` as a printed end of block, read as a control reads them and given back
 from __future__ import annotations
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from conftest import SAMPLES
 
 from interpret import moves, steps
-from postproc.blocks import HEADER, TAPE
-from postproc.diagnostics import Reporter
+from postproc.blocks import HEADER, TAPE, TRAILER
+from postproc.diagnostics import ProgramSyntaxError, Reporter
 from postproc.reader import read_blocks
+from strategies import lines
 
 CCW, CW = str(SAMPLES / "ballbar/v40r-100-ccw.csv"), str(SAMPLES / "ballbar/v40r-100-cw.csv")
 
@@ -71,6 +74,39 @@ def test_text_after_the_closing_percent_is_never_read():
     blocks = _read("%\nG00 X10. Z1.\nM30\n% O1234 (NEXT)\n", reporter)
     assert blocks[-1].kind == TAPE
     assert "never read" in reporter.warnings[0].message
+
+
+def test_a_dos_end_of_file_byte_after_the_closing_percent_is_a_complete_block():
+    reporter = Reporter()
+    blocks = _read("%\nG00 X10. Z1.\nM30\n%\n\x1a", reporter)
+    last = blocks[-1]
+    assert (last.kind, last.text, last.raw) == (TRAILER, "\x1a", "\x1a")
+    assert (last.words, last.comments, last.codes, last.has_eob) == ((), (), (), False)
+    assert "never read" in reporter.warnings[0].message and reporter.warnings[0].location.line == 5
+
+
+# Lines as the control may meet them: lines the grammar reads, tape marks with or without text
+# after them, bytes a DOS or Windows file carries, garbage.
+_ANY_LINE = st.one_of(lines(), st.sampled_from(["%", "% O1 (X)", "%G00 X1.", "\x1a", "\ufeff%", "", "  "]),
+                      st.text(st.sampled_from("%;()GXZN01.# \x1a"), max_size=12))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(_ANY_LINE, max_size=8), st.sampled_from(["\n", "\r\n"]), st.booleans())
+def test_every_block_the_reader_returns_is_complete(lines_, eol, label_skip):
+    """Whatever path made it (fast path, grammar, tape mark, trailer), a block answers for its
+    words, comments and end of block, and its words are pieces of its line."""
+    text = "".join(line + eol for line in lines_)
+    try:
+        blocks = _read(text, Reporter(), label_skip=label_skip)
+    except ProgramSyntaxError:
+        return  # refused with a position: no block to answer for
+    assert "".join(block.raw for block in blocks) == text
+    for block in blocks:
+        assert block.detail.words == block.words and isinstance(block.comments, tuple)
+        for word in block.words:
+            assert block.text[word.col : word.end] == word.text
+        block.has_eob
 
 
 def test_without_label_skip_the_control_reads_on_after_the_percent():

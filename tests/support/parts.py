@@ -98,7 +98,7 @@ class TurnedProfile:
         fillet_z = self.z1 - self.fillet
         round_x = self.r1 - self.round_
         if self.end_face:  # along the axis to the end face, which turns from the axis out
-            approach = [f"G00 X0.", f"G01 Z0. {feed}"]
+            approach = ["G00 X0.", f"G01 Z0. {feed}"]
             profile = [f"G01 X{v(2.0 * start)}"]
         else:
             approach = [f"G00 X{v(2.0 * start)}", f"G01 Z0. {feed}"]
