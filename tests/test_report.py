@@ -35,6 +35,8 @@ CALIBRATION = SAMPLES / "probe" / "artifact-calibration.csv"
 HOSTILE = 'ccw <b>&"\'.csv'  #: a file name that is also markup
 INJECTED = "<script>alert(1)</script>"
 FOUR = ("mean (um)", "mean |e| (um)", "RMS (um)", "sigma (um)")
+FIRST_SCREEN = (1280, 900)  #: a desktop browser's window
+NARROW = (500, 900)  #: a phone's, or a narrow window (headless chromium draws no narrower)
 
 
 def _report(*args: str) -> tuple[int, str]:
@@ -199,7 +201,7 @@ def test_the_four_figures_and_the_prediction_are_there(reports):
     for column in FOUR:
         assert f"<th>{column}</th>" in four
     for row in ("ballbar trace ccw", "ballbar trace cw", "ballbar diagnosis: traces minus model",
-                "parametric: fit_residual_um.both", "predicted: before (ballbar model)",
+                "parametric: fit residual, both", "predicted: before (ballbar model)",
                 "predicted: after (ballbar model)", "predicted: correction as emitted"):
         assert f"<td>{row}" in four, row
     numbers = re.findall(r"<td>([+-]?\d+\.\d{3})</td>", four)
@@ -209,9 +211,9 @@ def test_the_four_figures_and_the_prediction_are_there(reports):
     iso = _table(text, "iso-230-4")
     assert "G, circular deviation (ccw)" in iso and "H, circular hysteresis" in iso
     plain = html.unescape(text)
-    assert "parametric: fitted parameters (1 sigma)" in plain and "scaling_x_plus" in plain
+    assert "parametric: fitted parameters (1 sigma)" in plain and "<td>scaling X (+ side)</td>" in plain
     assert "Compensation: " in plain and "blocks replaced by" in plain
-    assert len(re.findall(r"<img ", text)) == 4  # polar, against angle, along the profile, the profile
+    assert len(re.findall(r"<img ", text)) == 5  # the verdict, polar, against angle, along the profile, the profile
 
 
 def test_provenance_lists_every_input_with_its_hash(reports):
@@ -250,11 +252,11 @@ def test_probe_points_against_the_program_and_a_plugin_report_of_any_shape(repor
     emitted = re.search(r"<td>correction as emitted</td><td>([+-]\d+\.\d+)</td>", prediction)
     assert emitted and -10.0 < float(emitted.group(1)) < 0.0  # 2 x 5 um towards the axis, along the arc's normal
     four = _table(text, "four-figures")
-    assert "test-report-probe: chains[1].residual_um" in four
-    assert "<td>shift_x_mm</td><td>-5</td><td>0.2</td><td>um</td>" in text  # mm shown in um
+    assert "test-report-probe: chain 1, residual" in four
+    assert "<td>shift x</td><td>-5.00</td><td>0.20</td><td>um</td>" in text  # mm shown in um, named in words
     assert "second <i>note</i>" in plain and "<i>note</i>" not in text
     assert "test-report-broken: report() failed: RuntimeError: no report <today>" in plain
-    assert len(re.findall(r"<img ", text)) == 5  # probe deviations, calibration, the plugin's plot, 2 predictions
+    assert len(re.findall(r"<img ", text)) == 6  # verdict, probe deviations, calibration, the plugin's plot, 2 predictions
 
 
 # ---------------------------------------------------------------- a real browser
@@ -265,27 +267,49 @@ window.addEventListener('load', function () {
   var sizes = [];
   for (var i = 0; i < document.images.length; i++) {
     var img = document.images[i], box = img.getBoundingClientRect();
-    sizes.push({complete: img.complete, natural: [img.naturalWidth, img.naturalHeight], shown: [box.width, box.height]});
+    sizes.push({complete: img.complete, natural: [img.naturalWidth, img.naturalHeight], shown: [box.width, box.height],
+                alt: img.alt, bottom: box.bottom + window.scrollY});
   }
+  function scrolls(element) {  // inside a box that scrolls sideways on its own (a wide table, a listing)
+    for (var e = element.parentElement; e && e !== document.body; e = e.parentElement) {
+      var x = getComputedStyle(e).overflowX;
+      if (x === 'auto' || x === 'scroll') return true;
+    }
+    return false;
+  }
+  var wide = [], all = document.body.getElementsByTagName('*');
+  for (var j = 0; j < all.length; j++) {
+    var box = all[j].getBoundingClientRect();
+    if (box.width > 0 && box.right > window.innerWidth + 0.5 && !scrolls(all[j]))
+      wide.push(all[j].tagName + (all[j].id ? '#' + all[j].id : '') + ' ' + Math.round(box.right));
+  }
+  var verdict = document.querySelector('.verdict'), nav = document.querySelector('nav');
+  var layout = {width: window.innerWidth, height: window.innerHeight,
+                scroll_width: document.documentElement.scrollWidth, wide: wide.slice(0, 20),
+                verdict_bottom: verdict ? verdict.getBoundingClientRect().bottom : null,
+                verdict_before_nav: verdict && nav ? !!(verdict.compareDocumentPosition(nav) & 4) : null};
   var out = document.createElement('pre');
   out.id = 'image-sizes';
-  out.textContent = JSON.stringify(sizes);
+  out.textContent = JSON.stringify({images: sizes, layout: layout});
   document.body.appendChild(out);
 });
 </script>
 """
 
 
-def _rendered_sizes(report: Path, folder: Path) -> list[dict]:
-    """Open a copy of the report (with a script that writes each image's size into the DOM) in
-    headless Chromium and read the sizes back from the dumped DOM."""
+def _rendered(report: Path, folder: Path, window: tuple[int, int] = FIRST_SCREEN) -> dict:
+    """Open a copy of the report (with a script that writes each image's size and the page's
+    layout into the DOM) in headless Chromium with a window of ``window`` pixels, and read them
+    back from the dumped DOM."""
+    if not (os.path.isfile(CHROMIUM) and os.access(CHROMIUM, os.X_OK)):
+        pytest.fail(f"chromium (Debian package chromium) is required at {CHROMIUM} for this test")
     copy = folder / f"{report.stem}-probed.html"
     copy.write_text(report.read_text(encoding="utf-8").replace("</body>", PROBE_SCRIPT + "</body>"), encoding="utf-8")
-    profile = folder / f"{report.stem}-chromium-profile"
+    profile = folder / f"{report.stem}-{window[0]}-chromium-profile"
     command = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                "--disable-background-networking", "--disable-component-update", "--disable-sync",
-               "--disable-dev-shm-usage", f"--user-data-dir={profile}", "--virtual-time-budget=10000",
-               "--dump-dom", copy.resolve().as_uri()]
+               "--disable-dev-shm-usage", "--hide-scrollbars", f"--window-size={window[0]},{window[1]}",
+               f"--user-data-dir={profile}", "--virtual-time-budget=10000", "--dump-dom", copy.resolve().as_uri()]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
     try:
         dom, errors = process.communicate(timeout=120)
@@ -298,34 +322,50 @@ def _rendered_sizes(report: Path, folder: Path) -> list[dict]:
     return json.loads(html.unescape(found.group(1).decode()))
 
 
-def test_every_image_renders_with_a_size_in_chromium(reports, tmp_path):
-    if not (os.path.isfile(CHROMIUM) and os.access(CHROMIUM, os.X_OK)):
-        pytest.fail(f"chromium (Debian package chromium) is required at {CHROMIUM} for this test")
-    for which in ("ballbar", "probe"):
+def _rendered_sizes(report: Path, folder: Path) -> list[dict]:
+    return _rendered(report, folder)["images"]
+
+
+@pytest.mark.parametrize("window", [FIRST_SCREEN, NARROW], ids=["1280px", "500px"])
+def test_every_image_renders_with_a_size_and_nothing_overflows_in_chromium(reports, tmp_path, window):
+    """At a desktop's width and a phone's: every image decoded and laid out, nothing wider than
+    the window but inside a box that scrolls on its own (a wide table, a listing), and the
+    verdict the first thing on the first screen."""
+    for which in ("ballbar", "probe", "model"):
         report = reports[which]
         expected = len(re.findall(r"<img ", report.read_text(encoding="utf-8")))
         started = time.perf_counter()
-        sizes = _rendered_sizes(report, tmp_path)
+        found = _rendered(report, tmp_path, window)
         elapsed = time.perf_counter() - started
+        sizes, layout = found["images"], found["layout"]
         assert len(sizes) == expected > 0, which
         for index, size in enumerate(sizes):
             assert size["complete"], (which, index)
             assert min(size["natural"]) > 0, (which, index, size)  # decoded: a broken image has natural size 0
-            assert min(size["shown"]) > 0, (which, index, size)  # and laid out with an area
-        print(f"{which}: {expected} images rendered by chromium in {elapsed:.2f} s")
+            assert 0 < size["shown"][0] <= layout["width"] and size["shown"][1] > 0, (which, index, size)
+        assert layout["width"] == window[0], layout
+        assert layout["scroll_width"] <= layout["width"], (which, layout)  # no sideways scrolling of the page
+        assert not layout["wide"], (which, layout["wide"])
+        assert layout["verdict_before_nav"] and 0 < layout["verdict_bottom"] <= window[1], (which, layout)
+        assert sizes[0]["alt"] == "deviation before and after compensation against the band"
+        if window == FIRST_SCREEN:
+            assert sizes[0]["bottom"] <= window[1], (which, sizes[0])  # the verdict's chart on the first screen
+        print(f"{which} at {window[0]} px: {expected} images rendered by chromium in {elapsed:.2f} s")
 
 
-def test_chromium_reports_a_broken_image_as_such(tmp_path):
-    """The browser check can fail: an image that does not decode has no natural size."""
-    if not (os.path.isfile(CHROMIUM) and os.access(CHROMIUM, os.X_OK)):
-        pytest.fail(f"chromium (Debian package chromium) is required at {CHROMIUM} for this test")
+def test_chromium_reports_a_broken_image_and_an_overflow_as_such(tmp_path):
+    """The browser checks can fail: an image that does not decode has no natural size, a block
+    wider than the window is found."""
     page = tmp_path / "broken.html"
     good = base64.b64encode(_png()).decode()
     page.write_text(f'<!DOCTYPE html><html><body><img src="data:image/png;base64,{good}" alt="good">'
-                    f'<img src="data:image/png;base64,AAAA" alt="broken"></body></html>')
-    sizes = _rendered_sizes(page, tmp_path)
+                    f'<img src="data:image/png;base64,AAAA" alt="broken"><div style="width:2000px">wide</div>'
+                    f'<div style="overflow-x:auto"><table><tr><td style="width:2000px">scrolls</td></tr></table></div>'
+                    f'</body></html>')
+    found = _rendered(page, tmp_path, NARROW)
+    sizes, layout = found["images"], found["layout"]
     assert min(sizes[0]["natural"]) > 0 and sizes[1]["natural"] == [0, 0]
-
+    assert layout["scroll_width"] > layout["width"] and [w.split()[0] for w in layout["wide"]] == ["DIV"]
 
 
 def test_a_partial_arc_is_reported_and_drawn_as_measured(tmp_path):
@@ -350,3 +390,29 @@ def test_a_partial_arc_is_reported_and_drawn_as_measured(tmp_path):
     angles, deviations = along_arc(read_ballbar(paths[1]))
     assert np.all(np.diff(angles[np.isfinite(angles)]) > 0)  # from the arc's start round to its end
     assert angles[0] == pytest.approx(-20.0) and angles[-1] == pytest.approx(199.5)  # across 0, not across the gap
+
+
+def test_a_report_from_a_saved_model_plots_the_traces_the_model_carries(tmp_path):
+    """ballbar-inverse keeps its traces: a --model report draws them (polar plot, against angle)
+    with the model's measurement time; a model that keeps none says why and how to show them."""
+    inverse, parametric = tmp_path / "inverse.json", tmp_path / "parametric.json"
+    for plugin, model in (("ballbar-inverse", inverse), ("parametric", parametric)):
+        result = CliRunner().invoke(main, ["fit", "--plugin", plugin, "--ballbar", str(CCW), "--ballbar", str(CW),
+                                           "-o", str(model)])
+        assert result.exit_code == 0, result.stderr
+    code, stderr = _report("--model", str(inverse), "-o", str(tmp_path / "inverse.html"))
+    assert code == 0, stderr
+    text = html.unescape((tmp_path / "inverse.html").read_text(encoding="utf-8"))
+    assert "polar plot of the ballbar traces" in text and "ballbar deviation against angle" in text
+    assert f"The traces are those the saved model {inverse} carries" in text
+    assert 'id="iso-230-4"' in text and "v40r-100-ccw.csv" in text
+    code, stderr = _report("--model", str(parametric), "-o", str(tmp_path / "parametric.html"))
+    assert code == 0, stderr
+    text = html.unescape((tmp_path / "parametric.html").read_text(encoding="utf-8"))
+    assert "polar plot" not in text and "keeps what it fitted, not the traces" in text and "--ballbar" in text
+    code, stderr = _report("--model", str(parametric), "--ballbar", str(CCW), "--ballbar", str(CW),
+                           "-o", str(tmp_path / "given.html"))
+    assert code == 0, stderr
+    text = html.unescape((tmp_path / "given.html").read_text(encoding="utf-8"))
+    assert "polar plot of the ballbar traces" in text
+    assert "they are the ones the model" in text and "was fitted from (by the SHA-256 it records)" in text

@@ -1,10 +1,13 @@
 """``postproc report [PROGRAM] [measurements...] -o report.html``: one self-contained HTML report.
 
 The measurement options are those of ``compensate`` (``--plugin``, ``--ballbar``, ``--probe``,
-``--calibration``, ``--model``, ``--option``, ``--machine``, ``--tolerance``). The report shows
-the measurements, the ISO 230-4 figures and the fitted models with their uncertainty, the
-profile of PROGRAM predicted before and after compensation, the four figures of each, and
-the provenance (:mod:`postproc.report`). Without PROGRAM it covers the measurements and the
+``--calibration``, ``--model``, ``--option``, ``--machine``, ``--tolerance``); with ``--model``
+the measurements given are shown beside the saved model (which is not fitted again). The
+report opens with its verdict: before and after compensation against the band (``--band``,
+else the tolerance in force), pass or fail (:mod:`postproc.report.verdict`); then the
+measurements, the ISO 230-4 figures and the fitted models with their uncertainty, the profile
+of PROGRAM predicted before and after compensation, the four figures of each, and the
+provenance (:mod:`postproc.report`). Without PROGRAM it covers the measurements and the
 models; without a compensator, the measurements alone. The file is written all or nothing
 (stdout without ``-o``); errors are raised as PostprocError for the command line to report.
 """
@@ -18,7 +21,7 @@ import click
 
 from ..diagnostics import Reporter, UsageError
 from ..output import STDOUT, write_atomically
-from .common import FINITE, guard
+from .common import FINITE, POSITIVE, guard
 
 
 @click.command("report")
@@ -32,7 +35,10 @@ from .common import FINITE, guard
 @click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
 @click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
 @click.option("--tolerance", type=FINITE, metavar="MM", help="Largest deviation of the emitted path.")
-def command(program, output, plugins, ballbar, probe, calibration, model, options, machine, tolerance):
+@click.option("--band", type=POSITIVE, metavar="MM",
+              help="The part's tolerance: the verdict passes when every deviation after compensation lies within "
+                   "+-MM of the nominal (default: the tolerance in force).")
+def command(program, output, plugins, ballbar, probe, calibration, model, options, machine, tolerance, band):
     """An HTML report: measurements, ISO figures, fitted models, predicted profile, provenance."""
     from .. import profile as profiles
     from ..request import Request
@@ -53,13 +59,14 @@ def command(program, output, plugins, ballbar, probe, calibration, model, option
             loaded = (source.name, source.read_bytes())
     request = Request(list(plugins), list(ballbar), list(probe), calibration, model, list(options), tolerance)
     profile = profiles.load(machine) if machine else profiles.DEFAULT
-    inputs = Inputs(loaded, request, machine, profile, _command_line(program, output, request, machine))
+    inputs = Inputs(loaded, request, machine, profile, _command_line(program, output, request, machine, band), band)
     document = build(inputs, reporter)
     write_atomically(output, render(document, "Made by postproc report; self-contained: no external resources.").encode())
     reporter.close()
     if output != STDOUT:
-        images = sum(1 for _ in _images(document.sections))
-        click.echo(f"{output}: report written ({len(document.sections)} sections, {images} figures)", err=True)
+        shown = ([document.lead] if document.lead is not None else []) + document.sections
+        images = sum(1 for _ in _images(shown))
+        click.echo(f"{output}: report written ({len(shown)} sections, {images} figures)", err=True)
 
 
 def _images(sections):
@@ -70,13 +77,14 @@ def _images(sections):
         yield from _images(section.subsections)
 
 
-def _command_line(program, output, request, machine) -> str:
+def _command_line(program, output, request, machine, band) -> str:
     words = ["postproc", "report"] + ([program] if program else [])
     for flag, values in (("--plugin", request.plugins), ("--ballbar", request.ballbar), ("--probe", request.probe),
                          ("--calibration", [request.calibration] if request.calibration else []),
                          ("--model", [request.model] if request.model else []), ("--option", request.options),
                          ("--machine", [machine] if machine else []),
-                         ("--tolerance", [f"{request.tolerance:g}"] if request.tolerance is not None else [])):
+                         ("--tolerance", [f"{request.tolerance:g}"] if request.tolerance is not None else []),
+                         ("--band", [f"{band:g}"] if band is not None else [])):
         for value in values:
             words += [flag, value]
     return shlex.join(words + ["-o", output])

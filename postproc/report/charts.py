@@ -1,7 +1,8 @@
 """The report's figures, rendered to PNG in memory.
 
-The ballbar plots are :mod:`postproc.plotting`'s own (the polar trace plot, deviation against
-angle), so the report shows what ``postproc ballbar --plot`` draws; the profile plots are
+The ballbar plots are :mod:`postproc.plotting`'s own (the polar trace plot with the test's
+figures, deviation against angle), so the report shows what ``postproc ballbar --plot``
+draws; the profile plots and the verdict's chart (before and after against the band) are
 drawn here the same way (matplotlib's object API, imported on use, no pyplot). Deviations are
 plotted in micrometres against theta or the arc length along the profile. A legend label
 may hold a file name: it is drawn literally (``$`` escaped, so mathtext never parses it).
@@ -18,6 +19,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..measurements.ballbar import BallbarTrace
+from ..pathplot import magnification_for
 from .document import Image
 
 DPI = 100
@@ -31,11 +33,11 @@ def png_image(png: bytes, alt: str, caption: str = "") -> Image:
     return Image(png, width, height, alt, caption)
 
 
-def _through_file(draw, *args) -> bytes:
+def _through_file(draw, *args, **options) -> bytes:
     """Run one of postproc.plotting's functions, which write a file, and keep the bytes."""
     with tempfile.TemporaryDirectory(prefix="postproc-report-") as folder:
         path = os.path.join(folder, "figure.png")
-        draw(*args, path)
+        draw(*args, path, **options)
         with open(path, "rb") as handle:
             return handle.read()
 
@@ -53,15 +55,17 @@ def _figure(width: float = 8.0, height: float = 4.2):
     return figure, figure.add_subplot()
 
 
-def polar(traces: Sequence[BallbarTrace], caption: str) -> Image:
-    """The traces about the nominal circle, magnified (postproc.plotting.plot_traces)."""
+def polar(traces: Sequence[BallbarTrace], caption: str, test=None, diagnosis=None, measured: str | None = None) -> Image:
+    """The traces about the nominal circle, magnified, with the test's ISO figures and diagnosis
+    written beside them (postproc.plotting.plot_traces: the plot ``postproc ballbar`` draws)."""
     from ..plotting import plot_traces
 
-    return png_image(_through_file(plot_traces, list(traces)), "polar plot of the ballbar traces", caption)
+    png = _through_file(plot_traces, list(traces), test=test, diagnosis=diagnosis, measured=measured)
+    return png_image(png, "polar plot of the ballbar traces", caption)
 
 
 def against_angle(series: Sequence[tuple[str, np.ndarray, np.ndarray]], caption: str) -> Image:
-    """Deviation (um) against theta; ``series`` are (label, angles_deg, deviations_mm), each in
+    """Deviation in um against theta; ``series`` are (label, angles_deg, deviations_mm), each in
     the order to draw it (a partial arc from its start, NaN at its gaps: plotting.along_arc)."""
     from ..plotting import plot_deviation_vs_angle
 
@@ -124,7 +128,7 @@ def profile_shape(points: np.ndarray, shapes: Sequence[tuple[str, np.ndarray, np
     axes.plot(points[:, 1], points[:, 0], "-", color="grey", linewidth=0.9, label="nominal")
     largest = max((float(np.nanmax(np.abs(d))) for *_, d, _ in shapes if np.any(np.isfinite(d))), default=0.0)
     extent = float(np.ptp(points, axis=0).max()) or 1.0
-    magnification = 0.08 * extent / largest if largest > 0 else 1.0
+    magnification = magnification_for(largest, extent, 0.08)
     for label, where, normals, deviation, style in shapes:
         shown = where + (np.asarray(deviation) * magnification)[:, None] * normals
         axes.plot(shown[:, 1], shown[:, 0], style, linewidth=1.1, markersize=3.5, label=_literal(label))
@@ -132,8 +136,8 @@ def profile_shape(points: np.ndarray, shapes: Sequence[tuple[str, np.ndarray, np
     axes.set_ylabel("x (radius mm)")
     axes.set_aspect("equal", adjustable="datalim")
     axes.grid(True, linewidth=0.3)
-    axes.legend(fontsize="small")
-    axes.set_title(f"deviation magnified \u00d7{magnification:,.0f} along the normal", fontsize="medium")
+    axes.legend(fontsize="small", title=f"deviation magnified \u00d7{magnification:,.0f} along the normal",
+                title_fontsize="small")
     return png_image(_png(figure), "nominal profile and the predicted profiles", caption)
 
 
@@ -147,3 +151,37 @@ def _deviation_axes(axes, xlabel: str) -> None:
     axes.set_ylabel("deviation (um), + = material left")
     axes.grid(True, linewidth=0.3)
     axes.legend(fontsize="small")
+
+
+VERDICT_COLOURS = {"before": ("tab:orange", "tab:brown", "tab:pink"), "after": ("tab:blue", "tab:green", "tab:purple")}
+
+
+def verdict(series: Sequence[tuple[str, np.ndarray, np.ndarray, str, bool]], band_mm: float, xlabel: str,
+            caption: str) -> Image:
+    """Before and after against the band: ``series`` are (label, where, deviation_mm, "before" or
+    "after", measured); a measurement is drawn as its points, a prediction as a line; the band
+    is shaded and its edges drawn."""
+    figure, axes = _figure(8.0, 3.6)
+    band_um = band_mm * 1000.0
+    axes.axhspan(-band_um, band_um, color="tab:green", alpha=0.12, linewidth=0)
+    for edge in (-band_um, band_um):
+        axes.axhline(edge, color="tab:green", linewidth=1.0, linestyle="--")
+    axes.plot([], [], color="tab:green", linewidth=6, alpha=0.25, label=f"band \u00b1{band_um:g} um")
+    axes.axhline(0.0, color="grey", linewidth=0.8)
+    used = {"before": 0, "after": 0}
+    for label, where, deviation, which, measured in series:
+        colour = VERDICT_COLOURS[which][used[which] % 3]
+        used[which] += 1
+        order = np.argsort(where, kind="stable")
+        x, y = np.asarray(where)[order], np.asarray(deviation, dtype=float)[order] * 1000.0
+        if measured:
+            size = 4.0 if len(x) <= 200 else 1.6
+            axes.plot(x, y, "o" if which == "after" else "s", color=colour, markersize=size, label=_literal(label),
+                      alpha=0.9 if which == "after" else 0.7, markeredgewidth=0)
+        else:
+            axes.plot(x, y, "-", color=colour, linewidth=2.0 if which == "after" else 1.3, label=_literal(label))
+    axes.set_xlabel(xlabel)
+    axes.set_ylabel("deviation (um), + = material left")
+    axes.grid(True, linewidth=0.3)
+    axes.legend(fontsize="small", loc="best")
+    return png_image(_png(figure), "deviation before and after compensation against the band", caption)

@@ -13,10 +13,25 @@ from typing import Union
 
 @dataclass(frozen=True, slots=True)
 class Text:
-    """A paragraph; ``kind`` styles it: ``p``, ``note``, ``warning`` or ``pre`` (kept verbatim)."""
+    """A paragraph; ``kind`` styles it: ``p``, ``note``, ``warning``, ``item`` (of a list) or
+    ``pre`` (kept verbatim). ``code`` are (start, end) character ranges of ``text`` set as code
+    (a name, an option, a formula): the text itself holds no markup."""
 
     text: str
     kind: str = "p"
+    code: tuple[tuple[int, int], ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class Verdict:
+    """The report's answer, first on its first screen: ``state`` is ``pass``, ``fail`` or
+    ``none`` (nothing to judge); ``headline`` says it in a few words, ``figures`` gives the
+    numbers (before -> after), ``sentence`` says what they are."""
+
+    state: str
+    headline: str
+    figures: str
+    sentence: str
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,7 +56,7 @@ class Image:
     caption: str = ""
 
 
-Part = Union[Text, Table, Image]
+Part = Union[Text, Table, Image, Verdict]
 
 
 @dataclass(frozen=True)
@@ -56,6 +71,9 @@ class Section:
 
 @dataclass(frozen=True)
 class Document:
+    """``lead`` is the first screen (the verdict), shown before the contents."""
+
     title: str
     subtitle: str
     sections: list[Section]
+    lead: Section | None = None

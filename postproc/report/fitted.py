@@ -4,14 +4,17 @@ The dict is the compensator's own (built-in or third-party), so nothing in it is
 
 - ``parameters``: ``{name: {"value", "sigma", ...}}`` (or ``{name: number}``): a table of the
   fitted values with their 1-sigma uncertainty. A parameter's ``unit`` is used when given;
-  otherwise the units of the ballbar diagnosis are read from its name (scaling in ppm,
-  squareness in urad, backlash, servo mismatch and ``*_mm`` in um); other keys of a
-  parameter (``applied: false``, say) are listed beside it;
+  otherwise its name and unit come from :mod:`.quantities` (scaling in ppm, squareness in
+  urad, backlash, servo mismatch and any ``*_mm`` in um); other keys of a parameter
+  (``applied: false``, say) are listed beside it;
 - any dict with ``mean_um``, ``mean_abs_um``, ``rms_um`` and ``std_um`` (the four figures,
   ``Figures.as_dict()``), wherever it sits: a row of the four-figures table;
 - PNG bytes, or an object with ``savefig`` (a matplotlib figure): an image;
-- everything else: a key/value table, nested keys joined with dots (``chains[1].tool`` for
-  a list of dicts), a list of strings one per line, long lists of numbers summarised.
+- everything else: a table of name, value and unit, nested keys named as one
+  (``chain 1, feature 2, s`` for ``chains[1].features[2].s_mm``), a list of strings one per
+  line, long lists of numbers summarised.
+
+No key is shown as it is: every name and unit is :mod:`.quantities`'s.
 """
 
 from __future__ import annotations
@@ -24,11 +27,10 @@ from typing import Any
 from ..figures import Figures
 from .charts import png_image
 from .document import Image, Part, Table, Text
+from .quantities import FOUR as FOUR_HEADINGS, Quantity, path_quantity, quantity, significant, with_sigma, words
 
 FOUR = ("mean_um", "mean_abs_um", "rms_um", "std_um")
 LIST_SHOWN = 8  #: a list longer than this is summarised
-UNITS = (("scaling", 1e6, "ppm"), ("squareness", 1e6, "urad"), ("backlash", 1e3, "um"),
-         ("servo_mismatch", 1e3, "um"), ("centre", 1e3, "um"), ("center", 1e3, "um"))
 
 
 def is_four_figures(value: Any) -> bool:
@@ -53,44 +55,45 @@ def number(value: Any, digits: int = 6) -> str:
     return str(value)
 
 
-def _unit(name: str, entry: Mapping) -> tuple[float, str]:
+def _quantity(name: str, entry: Mapping) -> Quantity:
     if isinstance(entry.get("unit"), str):
-        return 1.0, entry["unit"]
-    lowered = name.lower()
-    if lowered.endswith("_rad"):
-        return 1e6, "urad"
-    if lowered.endswith("_mm"):
-        return 1e3, "um"
-    for word, scale, unit in UNITS:
-        if word in lowered:
-            return scale, unit
-    return 1.0, ""
+        return Quantity(words(name), entry["unit"])
+    return quantity(name, errors=True)
 
 
-def parameters_table(parameters: Mapping, caption: str) -> Table:
-    """Fitted parameters with their uncertainty, in readable units."""
+def _real(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def parameters_table(parameters: Mapping, caption: str, key: str = "") -> Table:
+    """Fitted parameters with their uncertainty, named and in the units people read them in."""
     rows = []
     for name, entry in parameters.items():
         entry = entry if isinstance(entry, Mapping) else {"value": entry}
-        scale, unit = _unit(str(name), entry)
+        found = _quantity(str(name), entry)
         value, sigma = entry.get("value"), entry.get("sigma")
-        shown = number(value * scale, 5) if isinstance(value, (int, float)) and not isinstance(value, bool) else number(value)
-        spread = (number(sigma * scale, 3) if isinstance(sigma, (int, float)) and not isinstance(sigma, bool)
-                  else "not given")
-        extra = "; ".join(f"{key}: {_plain(v)}" for key, v in entry.items() if key not in ("value", "sigma", "unit"))
-        rows.append((str(name), shown, spread, unit, extra))
-    return Table(("parameter", "value", "1 sigma", "unit", "notes"), tuple(rows), caption)
+        if _real(value):
+            shown, spread = with_sigma(found.value(value), found.value(sigma) if _real(sigma) else None)
+        else:
+            shown, spread = number(value), ""
+        extra = "; ".join(f"{words(key)}: {_plain(v)}" for key, v in entry.items()
+                          if key not in ("value", "sigma", "unit"))
+        rows.append((found.name, shown, spread or "not given", found.unit, extra))
+    return Table(("parameter", "value", "1 sigma", "unit", "notes"), tuple(rows), caption, key=key)
 
 
-def _plain(value: Any) -> str:
+def _plain(value: Any, factor: float = 1.0) -> str:
+    """A value of any shape as text, numbers scaled to the unit shown."""
     if isinstance(value, (list, tuple)):
         if len(value) > LIST_SHOWN:
-            numbers = [v for v in value if isinstance(v, (int, float)) and not isinstance(v, bool)]
-            span = f", {number(min(numbers))} .. {number(max(numbers))}" if numbers else ""
+            numbers = [v * factor for v in value if _real(v)]
+            span = f", {significant(min(numbers))} .. {significant(max(numbers))}" if numbers else ""
             return f"{len(value)} values{span}"
-        return ", ".join(_plain(v) for v in value)
+        return ", ".join(_plain(v, factor) for v in value)
     if value is None:
         return "none"
+    if _real(value) and (isinstance(value, float) or factor != 1.0):
+        return number(float(value) * factor)
     return number(value)
 
 
@@ -108,13 +111,14 @@ def render(plugin: str, report: Mapping) -> tuple[list[Part], list[tuple[str, Fi
     """Parts showing a report dict, and the four-figures entries found in it (label, figures)."""
     parts: list[Part] = []
     figures: list[tuple[str, Figures]] = []
-    rows: list[tuple[str, str]] = []
+    rows: list[tuple[str, str, str]] = []
 
     def walk(prefix: str, value: Any) -> None:
+        named = path_quantity(prefix)
         if is_four_figures(value):
-            figures.append((f"{plugin}: {prefix}", four_figures(value)))
+            figures.append((f"{plugin}: {named.name}", four_figures(value)))
             return
-        image = _image(value, f"{plugin}: {prefix}")
+        image = _image(value, f"{plugin}: {named.name}")
         if image is not None:
             parts.append(image)
             return
@@ -130,18 +134,20 @@ def render(plugin: str, report: Mapping) -> tuple[list[Part], list[tuple[str, Fi
                 walk(f"{prefix}[{index}]", item)
             return
         if isinstance(value, (list, tuple)) and value and all(isinstance(item, str) for item in value):
-            rows.append((prefix, "\n".join(value)))
+            rows.append((named.name, "\n".join(value), ""))
             return
-        rows.append((prefix, _plain(value)))
+        numeric = _real(value) or (isinstance(value, (list, tuple)) and any(_real(v) for v in value))
+        rows.append((named.name, _plain(value, named.factor), named.unit if numeric else ""))
 
     for key, item in report.items():
         walk(str(key), item)
     if rows:
-        parts.append(Table(("item", "value"), tuple(rows), f"{plugin}: everything else it reports", numeric=False))
+        parts.append(Table(("item", "value", "unit"), tuple(rows), f"{plugin}: everything else it reports",
+                           numeric=False))
     if not parts and not figures:
         parts.append(Text(f"{plugin} reports nothing about its fit.", "note"))
     if figures:
-        parts.append(Table(("fit", "mean (um)", "mean |e| (um)", "RMS (um)", "sigma (um)", "points"),
+        parts.append(Table(("fit", *FOUR_HEADINGS, "points"),
                            tuple(figure_row(label, f) for label, f in figures), f"{plugin}: the four figures it reports"))
     return parts, figures
 

@@ -3,9 +3,12 @@
 :func:`gather` runs the steps in order:
 
 1. the compensators, fitted (or the saved model loaded) exactly as ``compensate`` does, so
-   their errors and warnings are the same;
+   their errors and warnings are the same; measurements given with a saved model are the
+   report's alone (the model is not fitted again);
 2. the measurements, read again for the report (quietly when the compensators have read them
-   and warned already), the probe calibration fitted;
+   and warned already), the probe calibration fitted; with a saved model and no ballbar
+   trace, the traces the model carries (``ballbar-inverse`` and ``iterative`` keep theirs),
+   or why there are none;
 3. the ballbar traces' ISO 230-4 figures and parametric diagnosis (one trace, or the ccw and
    cw traces of one test: of several, the first of each direction);
 4. the program: its profile, the probe points against it, the compensated program exactly
@@ -53,6 +56,7 @@ class Inputs:
     machine: str | None  #: the machine profile's file
     profile: MachineProfile
     command: str  #: the command line, for the provenance
+    band: float | None = None  #: mm: ``--band``, the deviation the part may have either side of the nominal
 
 
 @dataclass
@@ -88,6 +92,8 @@ class Run:
     when: dt.datetime = field(default_factory=provenance.moment)  #: the report's time
     figures: list[tuple[str, Figures]] = field(default_factory=list)  #: (what, the four figures)
     notes: list[str] = field(default_factory=list)  #: for the warnings section
+    model_traces: str | None = None  #: with a saved model: where its traces came from, or why there are none
+    model_measured: str | None = None  #: when the traces a saved model carries were measured
 
     def figure(self, label: str, deviations_mm) -> Figures | None:
         """The four figures of deviations (NaN left out), kept for the report's table."""
@@ -143,9 +149,10 @@ def _fit(run: Run) -> None:
     if request.plugins or request.model:
         from ..api import Pipeline
 
-        run.pipeline = Pipeline(request.plugins, request.ballbar, request.probe, request.calibration, request.model,
-                                request.options, request.tolerance, "auto", run.inputs.profile,
-                                reporter=run.reporter)
+        saved = bool(request.model)  # a saved model carries its own measurements: these are the report's
+        run.pipeline = Pipeline(request.plugins, [] if saved else request.ballbar, [] if saved else request.probe,
+                                None if saved else request.calibration, request.model, request.options,
+                                request.tolerance, "auto", run.inputs.profile, reporter=run.reporter)
 
 
 def _read(run: Run) -> None:
@@ -156,6 +163,8 @@ def _read(run: Run) -> None:
     context = ReadContext(Reporter() if run.pipeline is not None else run.reporter)
     found = readers()
     run.traces = [read_measurement(path, "ballbar", found, context) for path in request.ballbar]
+    if request.model:
+        _model_traces(run)
     probes = [read_measurement(path, "probe", found, context) for path in request.probe]
     run.calibrations = [read_measurement(request.calibration, "calibration", found, context)] if request.calibration else []
     if run.calibrations:
@@ -163,6 +172,61 @@ def _read(run: Run) -> None:
 
         run.calibration = fit_calibration(run.calibrations)
     run.probes = [Probed(probe, None) for probe in probes]
+
+
+def _model_traces(run: Run) -> None:
+    """With a saved model: the traces it carries when no trace was given, or why there are none.
+
+    A compensator's model is its own data (docs/formats.md §13); a trace in it is recognised by
+    the shape :func:`postproc.traces.trace_model` gives it, wherever it sits, and read back
+    with the checks a saved trace gets (:func:`postproc.traces.trace_from_model`)."""
+    from ..traces import trace_from_model
+
+    model = run.inputs.request.model
+    recorded = [path for path, _ in run.pipeline.core.inputs[:-1]]
+    if run.traces:
+        given = {provenance.file_input("", path).sha256 for path in run.inputs.request.ballbar}
+        fitted = {sha for _, sha in run.pipeline.core.inputs[:-1]}
+        same = "are" if given <= fitted else "are not all"
+        run.model_traces = (f"The traces shown are those given with --ballbar; they {same} the ones the model "
+                            f"{model} was fitted from (by the SHA-256 it records).")
+        return
+    found = []
+    for compensator in run.pipeline.core.compensators:
+        try:
+            data = compensator.model()
+        except Exception:  # a model that cannot give its data has none to plot; its report says more
+            continue
+        found += [trace_from_model(item, direction) for item, direction in _saved_traces(data)]
+    if found:
+        from ..measurements.csvfile import parse_time
+        from ..models import read as read_model
+        from ..plotting import moment_text
+
+        run.traces = found
+        moment = parse_time(str(read_model(model).get("measured", "")))
+        run.model_measured = f"{moment_text(moment)} (model)" if moment is not None else None
+        run.model_traces = (f"The traces are those the saved model {model} carries (fitted from "
+                            f"{', '.join(recorded) or 'files it does not name'}).")
+        return
+    names = ", ".join(compensator.name for compensator in run.pipeline.core.compensators)
+    run.model_traces = (f"The saved model {model} ({names}) keeps what it fitted, not the traces it was fitted from "
+                        f"({', '.join(recorded) or 'files it does not name'}), so there is no ballbar plot and the "
+                        "verdict is the model's own estimate: give the traces with --ballbar to show them and "
+                        "predict from them (they are checked against the SHA-256 the model records).")
+
+
+def _saved_traces(data, direction: str | None = None):
+    """(trace data, direction) of every saved trace in a model's data, in order."""
+    if isinstance(data, dict):
+        if {"angles_deg", "deviations_mm", "radius_mm"} <= data.keys():
+            yield data, data.get("direction", direction)
+            return
+        for key, value in data.items():
+            yield from _saved_traces(value, key if key in ("ccw", "cw") else direction)
+    elif isinstance(data, list):
+        for value in data:
+            yield from _saved_traces(value, direction)
 
 
 def _program(run: Run) -> None:

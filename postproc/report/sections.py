@@ -1,6 +1,8 @@
 """What goes in a report, section by section.
 
-1. **Summary**: what was asked and the headline figures.
+0. **The verdict**, first, before the contents: before and after against the band, pass or
+   fail, in words and one chart (:mod:`.verdict`).
+1. **Summary**: what was asked.
 2. **Measurements**: the ballbar traces (the polar plot, deviation against angle, a table of
    the traces), the probe points (their deviation from the program's profile along its
    normal against arc length, the dropped nub or outliers marked; without a program, the
@@ -15,7 +17,11 @@
    ballbar's machine would cut before and after, and the probed profile and what the
    correction makes of it (:mod:`.prediction`).
 6. **The four figures** (docs/methods.md §12) of every deviation above, in one table.
-7. **Warnings** of the run, and 8. **Provenance** (:mod:`.provenance`).
+7. **Warnings** of the run, 8. **Provenance** (:mod:`.provenance`), and 9. **References**:
+   every page and section the text cites, with its title (:mod:`.citations`).
+
+Every figure is named and in the unit of :mod:`.quantities`; a compensator's documentation is
+read from its markup (:mod:`.docstring`).
 
 Without a program, the report covers the measurements and the models alone. Without a
 compensator, the measurements alone. What is computed is gathered first (:mod:`.run`);
@@ -24,7 +30,6 @@ here it is laid out, and the four figures of each set of deviations are collecte
 
 from __future__ import annotations
 
-import inspect
 import os
 
 import numpy as np
@@ -35,15 +40,17 @@ from ..diagnostics import Reporter
 from ..measurements.ballbar import BallbarTrace
 from ..plotting import along_arc
 from ..probing import touched_points
-from . import charts, fitted, provenance
-from .document import Document, Part, Section, Table, Text
+from . import charts, citations, docstring, fitted, provenance, verdict
+from .document import Document, Image, Part, Section, Table, Text, Verdict
+from .quantities import FOUR
 from .run import KINDS, Inputs, Run, gather
 
 __all__ = ["Inputs", "build"]
 
 
 def build(inputs: Inputs, reporter: Reporter) -> Document:
-    """Read, fit, compensate and predict (:func:`.run.gather`), then lay the sections out."""
+    """Read, fit, compensate and predict (:func:`.run.gather`), then lay the sections out: the
+    verdict first (:mod:`.verdict`), the references to the pages the text cites last."""
     run = gather(inputs, reporter)
     sections = [_measurements(run), _iso(run), _models(run)]
     if run.program is not None:
@@ -53,9 +60,30 @@ def build(inputs: Inputs, reporter: Reporter) -> Document:
     summary = _summary(run)
     warnings = _warnings(run)
     ordered = [summary, *sections, four] + ([warnings] if warnings else []) + [_provenance(run)]
+    lead = verdict.section(run)
+    cited = citations.section(_texts([lead, *ordered]))
+    if cited is not None:
+        ordered.append(cited)
     name = run.program.name if run.program else "measurements and model"
     subtitle = f"postproc report, {run.when.strftime('%Y-%m-%d %H:%M UTC')}"
-    return Document(f"Compensation report: {name}", subtitle, ordered)
+    return Document(f"Compensation report: {name}", subtitle, ordered, lead)
+
+
+def _texts(sections: list[Section]):
+    """Every string of the sections a reader reads (for the citations in them)."""
+    for section in sections:
+        yield section.title
+        for part in section.parts:
+            if isinstance(part, Text):
+                yield part.text
+            elif isinstance(part, Table):
+                yield part.caption
+                yield from (cell for row in part.rows for cell in row)
+            elif isinstance(part, Image):
+                yield part.caption
+            elif isinstance(part, Verdict):
+                yield part.sentence
+        yield from _texts(section.subsections)
 
 
 # ---------------------------------------------------------------- measurements
@@ -69,9 +97,10 @@ def _measurements(run: Run) -> Section | None:
         subsections.append(_probe(run))
     if run.calibrations:
         subsections.append(_calibration(run))
-    if not subsections:
+    about = [Text(run.model_traces, "note")] if run.model_traces else []
+    if not subsections and not about:
         return None
-    return Section("measurements", "Measurements", [], subsections)
+    return Section("measurements", "Measurements", about, subsections)
 
 
 def _ballbar(run: Run) -> Section:
@@ -87,8 +116,10 @@ def _ballbar(run: Run) -> Section:
     parts: list[Part] = [
         Table(("file", "direction", "radius (mm)", "centre x, z (mm)", "feed (mm/min)", "samples", "captured arc",
                "form", "set-up centre removed x, z (um)"), tuple(rows), "ballbar traces"),
-        charts.polar(traces, "The traces about the nominal circle, seen from +Y (Z to the right, X up); "
-                             "the deviation is magnified."),
+        charts.polar(traces, "The traces about the nominal circle, seen from +Y (Z to the right, X up), the "
+                             "deviation magnified as stated on the plot, with the test's ISO 230-4 figures and the "
+                             "diagnosis (docs/methods.md §3.3, §3.4, §15).",
+                     run.test, run.diagnosis, run.model_measured),
     ]
     series = [(_trace_label(trace, traces), *along_arc(trace)) for trace in traces]
     if run.diagnosis is not None:
@@ -138,7 +169,7 @@ def _probe(run: Run) -> Section:
                                                  "left) against arc length from the profile's start."))
             measured = run.figure(f"probe measured: {probe.path}", profiled.deviation)
             cleaned = run.figure(f"probe screened: {probe.path}", profiled.cleaned)
-            parts.append(Table(("deviation", "mean (um)", "mean |e| (um)", "RMS (um)", "sigma (um)", "points"),
+            parts.append(Table(("deviation", *FOUR, "points"),
                                (fitted.figure_row("as measured", measured), fitted.figure_row("screened", cleaned)),
                                "the four figures"))
             calibration = set(run.calibration.report()) if run.calibration is not None else set()
@@ -196,10 +227,9 @@ def _iso(run: Run) -> Section | None:
                    "squareness_rad": diagnosis.squareness, "servo_mismatch_mm": diagnosis.servo_mismatch,
                    "servo_lag_ms": diagnosis.servo_lag_ms, "apparent_squareness_rad": diagnosis.apparent_squareness,
                    "setup_centre_x_mm": diagnosis.centre_offset[0], "setup_centre_z_mm": diagnosis.centre_offset[1]}
-        parameters = {name: ({"value": e.value, "sigma": e.sigma, "unit": "ms"} if name == "servo_lag_ms"
-                             else {"value": e.value, "sigma": e.sigma})
-                      for name, e in entries.items() if e is not None}
-        parts.append(fitted.parameters_table(parameters, "parametric diagnosis of the machine (1 sigma)"))
+        parameters = {name: {"value": e.value, "sigma": e.sigma} for name, e in entries.items() if e is not None}
+        parts.append(fitted.parameters_table(parameters, "parametric diagnosis of the machine (1 sigma)",
+                                             key="diagnosis"))
         residual = diagnosis.residual
         run.figures.append(("ballbar diagnosis: traces minus model", residual))
         parts.append(Text(f"Fit residual (traces minus the diagnosed model): {residual}.", "note"))
@@ -222,7 +252,7 @@ def _models(run: Run) -> Section:
     subsections = []
     for item, compensator in zip(core.installed, core.compensators):
         name = compensator.name
-        parts: list[Part] = [Text(item.cls.summary() or name)]
+        parts: list[Part] = [docstring.inline(item.cls.summary() or name)]
         if run.inputs.request.model:
             parts.append(Text(f"Loaded from the saved model {run.inputs.request.model}.", "note"))
         try:
@@ -240,11 +270,9 @@ def _models(run: Run) -> Section:
         if settings:
             parts.append(Table(("option", "value in force"), tuple((k, repr(v)) for k, v in settings.items()),
                                f"{name}: options", numeric=False))
-        doc = (item.cls.__doc__ or "").strip()
-        if doc:
-            parts.append(Text(f"What {name} does (its documentation):", "note"))
-            parts.append(Text(inspect.cleandoc(doc), "pre"))
-        subsections.append(Section(f"model-{name}", f"{name} {item.version}", parts))
+        documentation = docstring.parts(item.cls.__doc__ or "", skip_summary=True)
+        what = [Section(f"doc-{name}", f"What {name} does (its documentation)", documentation)] if documentation else []
+        subsections.append(Section(f"model-{name}", f"{name} {item.version}", parts, what))
     return Section("models", "Fitted models", [], subsections)
 
 
@@ -284,10 +312,10 @@ def _prediction(run: Run) -> Section:
         if found is not None:
             rows.append(fitted.figure_row(label, found))
 
-    add("before (ballbar model)", result.before, "-")
-    add("after (ballbar model)", result.after, "-")
-    add("correction intended", result.intended, ":")
-    add("correction as emitted", result.correction, "--")
+    add("before (ballbar model)", result.before, "C1-")  # the colours of before and after in the verdict
+    add("after (ballbar model)", result.after, "C0-")
+    add("correction intended", result.intended, "C2:")
+    add("correction as emitted", result.correction, "C3--")
     for probed in run.probes:
         if probed.profile is None:
             continue
@@ -304,7 +332,7 @@ def _prediction(run: Run) -> Section:
                                                  "against arc length from the profile's start."))
         parts.append(charts.profile_shape(stations.points, shapes, "The nominal profile and the predicted ones, "
                                                                    "seen from +Y (Z to the right, X up)."))
-        parts.append(Table(("profile", "mean (um)", "mean |e| (um)", "RMS (um)", "sigma (um)", "points"), tuple(rows),
+        parts.append(Table(("profile", *FOUR, "points"), tuple(rows),
                            "the four figures of each", key="prediction-figures"))
     else:
         parts.append(Text("Nothing to predict from: give ballbar traces, probe points or a compensator.", "note"))
@@ -336,11 +364,6 @@ def _summary(run: Run) -> Section:
         if files:
             rows.append((role, ", ".join(files)))
     parts: list[Part] = [Table(("item", "value"), tuple(rows), "what was asked", numeric=False)]
-    headline = [(label, f) for label, f in run.figures if label.startswith("predicted: ")]
-    if headline:
-        parts.append(Table(("predicted profile", "mean (um)", "mean |e| (um)", "RMS (um)", "sigma (um)", "points"),
-                           tuple(fitted.figure_row(label.removeprefix("predicted: "), f) for label, f in headline),
-                           "headline"))
     return Section("summary", "Summary", parts)
 
 
@@ -351,7 +374,7 @@ def _four_figures(run: Run) -> Section:
     return Section("four-figures-section", "The four figures", [
         Text("Mean, mean absolute, RMS and standard deviation (population, ddof = 0) of each set of deviations, "
              "in micrometres (docs/methods.md §12)."),
-        Table(("deviations", "mean (um)", "mean |e| (um)", "RMS (um)", "sigma (um)", "points"), rows,
+        Table(("deviations", *FOUR, "points"), rows,
               "the four figures", key="four-figures")])
 
 
