@@ -12,7 +12,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from postproc import ballbar_fit
-from postproc.ballbar_analysis import Estimate, screen, tests
+from postproc.ballbar_analysis import MAX_BACKLASH, MAX_SCALING, Estimate, screen, tests
 from postproc.compensator import Compensator, Measurements, Option, Piece
 from postproc.diagnostics import Location, MeasurementError, ModelError
 from postproc.figures import figures
@@ -296,6 +296,13 @@ class Parametric(ErrorFunctions):
             raise ModelError(f"{self.name}: the saved model is incomplete ({exc.__class__.__name__}: {exc})") from None
         if not all(np.isfinite([e.value for e in self.parameters.values()])):
             raise ModelError(f"{self.name}: the saved model has parameters that are not finite numbers")
+        for name, e in self.parameters.items():
+            limit, unit, scale = ((MAX_SCALING, "ppm", 1e6) if name.startswith("scaling") else
+                                  (MAX_BACKLASH, "um", 1e3) if name.startswith("backlash") else (None, "", 1.0))
+            if limit is not None and not abs(e.value) <= limit:
+                raise ModelError(f"{self.name}: the saved model's {name} is {e.value * scale:+.1f} {unit}, beyond the "
+                                 f"{limit * scale:.0f} {unit} that traces are refused above: the model was edited, or "
+                                 "made from traces in another unit; fit it again from the traces")
 
     def report(self) -> dict[str, Any]:
         fitted = {name: {"value": e.value, "sigma": e.sigma} for name, e in self.parameters.items()}

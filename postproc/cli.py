@@ -49,6 +49,7 @@ def _reported(command):
         from .inputs import session
 
         try:
+            _refuse_empty(kwargs)
             with session():  # each input read once, whoever needs it again
                 return command(*args, **kwargs)
         except PostprocError as exc:
@@ -64,6 +65,19 @@ def _reported(command):
             sys.exit(EXIT_INTERNAL)
 
     return wrapper
+
+
+def _refuse_empty(values: dict) -> None:
+    """An empty value (``--machine ""``, most often a shell variable that was never set) is a
+    usage error, never the option left out: an empty ``--machine`` would drop the profile's
+    soft limits, an empty ``-o`` write to stdout."""
+    command = click.get_current_context().command
+    for param in command.params:
+        value = values.get(param.name)
+        if value == "" or (isinstance(value, (tuple, list)) and "" in value):
+            shown = param.opts[0] if isinstance(param, click.Option) else param.human_readable_name
+            raise UsageError(f"{shown} is empty (a shell variable that is not set?): give a value, or leave the "
+                             "option out (nothing was written)")
 
 
 def _profile(machine: str | None) -> profiles.MachineProfile:
@@ -171,6 +185,9 @@ def main(ctx: click.Context, log: str | None = None) -> None:
     """Rewrite FANUC lathe part programs so that the next part is cut right."""
     _catch(ctx, signal.SIGTERM)
     _catch(ctx, signal.SIGHUP)
+    if log == "":
+        raise click.UsageError("--log is empty (a shell variable that is not set?): give a file, or leave the "
+                               "option out")
     if log:
         try:
             sys.stderr = _Tee(sys.stderr, open(log, "a", encoding="utf-8"))

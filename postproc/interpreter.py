@@ -381,15 +381,17 @@ class Interpreter:
 
     def _note_units(self, block: Block | tuple, plain: str | None, pointed: bool) -> None:
         """Calculator-type input (FANUC parameter 3401 bit 0, DPI) reads X118 as 118 mm; the
-        default reads it in least input increments, 0.118 mm (IS-B). A program whose axis words
-        mix decimal points with plain numbers was written for one of the two, and nothing in
-        it says which: unless the machine profile states ``calculator_input``, the first plain
-        word is a warning, or a refusal where blocks are to be rewritten."""
+        default reads it in least input increments, 0.118 mm (IS-B). Nothing in a program says
+        which of the two it was written for, and a rewritten block is written with decimal
+        points, which mean the same under both: so a plain word changes meaning on one of the
+        two controls once its neighbours are rewritten. Unless the machine profile states
+        ``calculator_input``, the first plain word (a whole program of them too) is a warning,
+        or a refusal where blocks are to be rewritten."""
         if pointed:
             self._pointed = True
         if plain is not None and self._plain is None:
             self._plain = (block, plain, self.modal.inch)
-        if self._plain is None or not self._pointed or self._units_said or self.profile.calculator_input is not None:
+        if self._plain is None or self._units_said or self.profile.calculator_input is not None:
             return
         self._units_said = True
         block, letter, inch = self._plain
@@ -397,7 +399,7 @@ class Interpreter:
         increment = self.profile.increment(inch)
         unit = "in" if inch else "mm"
         as_written = float(word.value)
-        message = (f"{word.text} has no decimal point while other axis words have one: read in least input "
+        message = (f"{word.text} has no decimal point: read in least input "
                    f"increments ({self.profile.input_increment}) it is {as_written * increment:g} {unit}; on a control "
                    f"with calculator-type input (parameter 3401 bit 0, DPI) it is {as_written:g} {unit}")
         where = self._location(block, word.col)

@@ -190,6 +190,7 @@ class Pipeline:
                     body.write("".join(line + anchor.block.eol for _, line in opening).encode())
             for compensator in self.compensators:
                 self._guarded(compensator, "finish", compensator.finish, model=self.request.model)
+            self._say_what_changed(rewriter, source.name)
             spool.write("".join(lead).encode("utf-8", "surrogateescape"))
             if region.ranges and not region.matched and not opening:  # nothing done is said, and not marked as done
                 self.reporter.warn(f"--region {' '.join(self.request.regions)} selects no block that could be "
@@ -203,6 +204,21 @@ class Pipeline:
             while chunk := body.read(1 << 20):
                 spool.write(chunk)
         return rewriter
+
+    def _say_what_changed(self, rewriter: Rewriter, name: str) -> None:
+        """A run that changed no feed move, or whose corrections all lie within the tolerance
+        (so the written path may be as near the nominal as the compensated), says so: its
+        header still reads COMPENSATED, and a shop must not take that for a corrected part."""
+        if rewriter.replaced == 0:
+            self.reporter.warn("no feed move was changed (the program has none the compensators reach): it is "
+                               "written as it was, under a provenance header", Location(name))
+            return
+        tolerance = self.request.tolerance or self.profile.default_tolerance(False)
+        if 0.0 < rewriter.largest <= tolerance:
+            self.reporter.warn(f"the largest correction, {rewriter.largest * 1000:.2f} um, is within the tolerance in "
+                               f"force, {tolerance * 1000:.2f} um: the written path may be no nearer the compensated "
+                               "path than the nominal one is (a finer --tolerance, or more output decimals in the "
+                               "machine profile, lets it follow)", Location(name))
 
     def _prologue(self, source: Source) -> tuple[list[tuple[str, str]], Step | None]:
         """The compensators' own opening blocks, (compensator, text) each read back, and the

@@ -11,11 +11,14 @@ across one would call good points on either side outliers. Within a group, point
 by arc length ``s``:
 
 1. a robust trend: from 6 points on, LOWESS (local straight lines, tricube weights over the
-   ``frac`` nearest points, three bisquare robustness passes); with 4 or 5 points, Siegel's
-   repeated-median straight line (right while no more than half the points are bad); with
-   3 points, the two that agree best stand for the group: the one farthest from the median
-   is judged against their mean, with their half-difference as the scale, and neither of
-   them is dropped. Fewer than 3 points are not screened (one bad touch cannot be told
+   ``frac`` nearest points, three bisquare robustness passes); with 3 to 5 points, the
+   points that agree best stand for the group and the one left out is judged against them:
+   with 4 or 5, the ``n - 1`` that lie closest to a straight line, the one left out judged
+   against their line with the scatter about it as the scale; with 3, the two nearest the
+   median, the third judged against their mean with their half-difference as the scale.
+   None of those that stand for the group is dropped, so at most one point of so few is
+   (a robust scale of 4 or 5 residuals is no scale: a line through two of them leaves two
+   exact zeros, and a nub 28 um high hid behind it). Fewer than 3 points are not screened (one bad touch cannot be told
    from two good ones): whoever relies on them must say so (the probe compensators' minimum
    evidence per feature);
 2. residuals from the trend, their robust scale ``sigma = 1.4826 MAD``, and a point is dropped
@@ -136,19 +139,27 @@ def _replacement(i: int, s: np.ndarray, y: np.ndarray, good: np.ndarray, fill: s
     return value, ("extrapolated" if beyond > 0.0 else "interpolated"), used
 
 
-def repeated_median(s: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Siegel's repeated-median straight line through (s, y), at the points ``s``.
+def _left_out(s: np.ndarray, y: np.ndarray, cutoff: float, floor: float) -> tuple[np.ndarray, float, float]:
+    """(trend, sigma, threshold) of 4 or 5 points: the ``n - 1`` that lie closest to a straight
+    line stand for the group, and the one left out is judged against their line, with their
+    scatter about it (``n - 3`` degrees of freedom) as the scale."""
+    n = len(y)
+    best: tuple[float, np.ndarray] | None = None
+    for out in range(n):
+        others = np.arange(n) != out
+        line = _line(s[others], y[others])
+        scatter = float(np.sqrt(np.sum((y[others] - np.polyval(line, s[others])) ** 2) / (n - 3)))
+        if best is None or scatter < best[0]:
+            best = (scatter, np.polyval(line, s))
+    sigma, trend = best
+    return trend, sigma, max(cutoff * sigma, floor)
 
-    The slope is the median over the points of the median slope from each to the others, so
-    up to half the points may be wrong without moving it. Points at one place give no slope."""
-    ds = s[:, None] - s[None, :]
-    dy = y[:, None] - y[None, :]
-    apart = ds != 0.0
-    slopes = np.where(apart, dy / np.where(apart, ds, 1.0), np.nan)
-    inner = [np.median(row[np.isfinite(row)]) for row in slopes if np.isfinite(row).any()]
-    slope = float(np.median(inner)) if inner else 0.0
-    level = float(np.median(y - slope * s))
-    return level + slope * s
+
+def _line(s: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Least-squares straight line (slope, level); a level alone when the points share one ``s``."""
+    if np.ptp(s) == 0.0:
+        return np.array([0.0, float(np.mean(y))])
+    return np.polyfit(s, y, 1)
 
 
 def _judged(s: np.ndarray, y: np.ndarray, cutoff: float, floor: float) -> tuple[np.ndarray, float, float]:
@@ -162,9 +173,7 @@ def _judged(s: np.ndarray, y: np.ndarray, cutoff: float, floor: float) -> tuple[
         sigma = abs(y[others[0]] - y[others[1]]) / 2.0
         return trend, sigma, max(cutoff * sigma, floor)
     if n < LOWESS_POINTS:
-        trend = repeated_median(s, y)
-        sigma = MAD_SIGMA * float(np.median(np.abs(y - trend)))
-        return trend, sigma, max(cutoff * sigma, floor)
+        return _left_out(s, y, cutoff, floor)
     order = np.argsort(s, kind="stable")
     trend = np.empty(n)
     trend[order] = lowess(s[order], y[order])

@@ -121,7 +121,7 @@ def test_check_warns_at_the_first_plain_axis_word_of_a_mixed_program(run):
     assert result.exit_code == 0
     assert result.stdout == ""
     lines = result.stderr.splitlines()
-    assert lines[0].startswith("<stdin>:7:4: warning: X118 has no decimal point while other axis words have one: "
+    assert lines[0].startswith("<stdin>:7:4: warning: X118 has no decimal point: "
                                "read in least input increments (IS-B) it is 0.118 mm; on a control with "
                                "calculator-type input (parameter 3401 bit 0, DPI) it is 118 mm")
     assert lines[1:3] == ["    G01X118", "       ^"]
@@ -147,13 +147,31 @@ def test_compensate_refuses_a_mixed_program_until_the_profile_says_how_the_contr
         assert run("check", "--machine", str(machine), input=result.stdout_bytes).exit_code == 0
 
 
-def test_a_program_in_one_spelling_needs_no_word_on_calculator_input(run, tmp_path):
+def test_a_program_with_decimal_points_throughout_needs_no_word_on_calculator_input(run, tmp_path):
+    model = _mixed_model(run, tmp_path)
+    result = run("compensate", "--model", model, input=HEMISHELL)
+    assert result.exit_code == 0, result.stderr
+    assert "decimal point" not in result.stderr
+
+
+def test_a_program_without_any_decimal_point_is_refused_until_the_profile_says_how_the_control_reads_it(
+        run, tmp_path):
+    """Its rewritten blocks get decimal points, which mean the same on both controls, while its
+    plain words mean 1000 times more on one of them: a whole program of plain words is as
+    ambiguous as a mixed one."""
     model = _mixed_model(run, tmp_path)
     plain = b"G21 G99 G18\nG00 X120000 Z5000\nG01 X86000 Z250 F0.2\nG04 X1000\nG28 U0 W0\nM30\n"
-    for program in (plain, HEMISHELL):
-        result = run("compensate", "--model", model, input=program)
-        assert result.exit_code == 0, result.stderr
-        assert "decimal point" not in result.stderr
+    result = run("compensate", "--model", model, input=plain)
+    assert result.exit_code == 4 and result.stdout_bytes == b""
+    assert result.stderr.startswith("<stdin>:2:5: error: X120000 has no decimal point: read in least input "
+                                    "increments (IS-B) it is 120 mm; on a control with calculator-type input")
+    checked = run("check", input=plain)
+    assert checked.exit_code == 0 and "<stdin>:2:5: warning: X120000 has no decimal point" in checked.stderr
+    machine = tmp_path / "increments.toml"
+    machine.write_text("calculator_input = false\n")
+    result = run("compensate", "--model", model, "--machine", str(machine), input=plain)
+    assert result.exit_code == 0, result.stderr
+    assert "decimal point" not in result.stderr and "X86." in result.stdout
 
 
 def test_calculator_input_is_unset_unless_the_profile_states_it(run, tmp_path):

@@ -93,3 +93,25 @@ def test_a_model_is_dated_by_the_measured_key_of_its_files(run, tmp_path):
     result = run("compensate", HEMISHELL, "--plugin", "tool-offset", "--probe", str(tmp_path / "hemishell-pass1.csv"),
                  "--calibration", str(tmp_path / "artifact-calibration.csv"))
     assert result.exit_code == 0, result.stderr
+
+
+def test_a_parametric_model_beyond_what_traces_may_read_is_refused(run, tmp_path):
+    """A model edited by hand (its SHA-256 made again) or fitted from traces in another unit is
+    held to the bounds its traces are: 500 ppm of scaling, 50 um of backlash."""
+    import hashlib
+
+    from postproc.models import _canonical
+
+    model = tmp_path / "model.json"
+    assert run("fit", "--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW, "-o", str(model)).exit_code == 0
+    saved = json.loads(model.read_text())
+    for name, value, said in (("backlash_x", 0.08, "backlash_x is +80.0 um, beyond the 50 um"),
+                              ("scaling_x_plus", -0.0009, "scaling_x_plus is -900.0 ppm, beyond the 500 ppm")):
+        data = json.loads(json.dumps(saved))
+        data.pop("sha256")
+        data["model"]["parameters"][name][0] = value
+        data["sha256"] = hashlib.sha256(_canonical(data)).hexdigest()
+        model.write_text(json.dumps(data))
+        result = run("compensate", HEMISHELL, "--model", str(model))
+        assert (result.exit_code, result.stdout) == (3, ""), result.stderr
+        assert f"parametric: the saved model's {said}" in result.stderr

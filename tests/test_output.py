@@ -175,6 +175,26 @@ def test_two_outputs_in_one_file_are_refused(run, part, tmp_path):
                        "the other; give them different names\n")
 
 
+def test_a_log_that_is_an_output_gets_no_line_of_the_refusal(run, part, tmp_path):
+    kept = tmp_path / "kept.nc"
+    kept.write_bytes(b"%\nO1\nM30\n%\n")  # the user's program, there before the run
+    for args in (("-o", str(kept)), ("--report", str(kept))):
+        message = _same(run, tmp_path, "--log", str(kept), "compensate", str(part), *TRACES, *args)
+        assert message.endswith(f"--log {kept} are the same file: one output would destroy the other; give them "
+                                "different names\n"), message
+
+
+@pytest.mark.parametrize("args", [
+    ("compensate", "{part}", "--machine", ""), ("compensate", "{part}", "-o", ""), ("compensate", "{part}", "--out-dir", ""),
+    ("compensate", "{part}", "--report", ""), ("compensate", "{part}", "--calibration", ""), ("check", ""),
+    ("path", "{part}", "--machine", ""), ("fit", "--plugin", "ballbar-inverse", "--ballbar", ""),
+    ("--log", "", "check", "{part}")])
+def test_an_empty_value_is_refused_never_taken_for_the_option_left_out(run, part, tmp_path, args):
+    """``--machine "$PROFILE"`` with the variable unset must not run without the profile's limits."""
+    message = _same(run, tmp_path, *(arg.format(part=part) for arg in args))
+    assert "is empty (a shell variable that is not set?)" in message, message
+
+
 def test_standard_output_redirected_onto_the_input_is_refused(part, tmp_path):
     copy = tmp_path / "copy.nc"
     shutil.copy(part, copy)

@@ -63,13 +63,15 @@ POSITIVE = Finite(positive=True)
 
 def guard(inputs, outputs) -> None:
     """Refuse an output that is an input or another output: ``inputs`` and ``outputs`` are
-    (option, path) pairs; the ``--log`` file counts as an output. A log that is an input is
-    detached first, so that the refusal itself is not appended to that input."""
+    (option, path) pairs; the ``--log`` file counts as an output. A log that is an input or
+    another output is detached first, so that the refusal itself is not appended to the file
+    the refusal protects."""
     inputs = [(option, path) for option, path in inputs if path]
     log = click.get_current_context().meta.get(LOG)
     if log is not None:
         try:
             refuse_overwrite(inputs, [("--log", log)])
+            refuse_overwrite([], [("--log", log), *outputs])
         except UsageError:
             detach = getattr(sys.stderr, "detach_log", None)
             if detach is not None:
