@@ -265,7 +265,7 @@ class Rewriter:
         self.worst = 0.0  #: largest measured deviation from a target, mm
         self.unplannable: list[tuple[int, str]] = []  #: (line, limit) of each block left uncompensated
         self.macro_lines: list[int] = []  #: blocks whose macro values were written as numbers, or kept for them
-        self._contour: tuple[list[Cut], list[Cut], list[int]] | None = None  # nominal, written, the approach's count of each
+        self._contour: tuple[list[Cut], list[Cut]] | None = None
         self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
         self._checker: Interpreter | None = None  # reads replacements back (the self-check)
         self._grids: dict[bool, Grid] = {}  # by inch
@@ -799,17 +799,12 @@ class Rewriter:
     # ------------------------------------------------------------------ cycle contours
 
     def _follow_contour(self, step: Step, cuts: list[Cut] | None) -> None:
-        """Collect a P..Q contour as planned and as written; at its end, check the cycle's rules.
-
-        The contour's first block (P) is the approach from the cycle's start point, run at each
-        roughing pass: it is not part of the shape the cycle requires to run one way, so the
-        check starts where it ends."""
+        """Collect a P..Q contour as planned and as written; at its end, check the cycle's rules."""
         if not step.in_contour:
             return
         contour = self._contour
-        first = contour is None
-        if first:
-            contour = self._contour = ([], [], [0, 0])
+        if contour is None:
+            contour = self._contour = ([], [])
         nominal = [_cut_of(m) for m in step.moves if m.role == CONTOUR and m.known]
         contour[0].extend(nominal)
         if cuts is None:  # written as it was: from wherever the previous block left the tool
@@ -817,12 +812,9 @@ class Rewriter:
             if cuts and contour[1] and not cuts[0].is_arc:
                 cuts[0] = cuts[0]._replace(x0=contour[1][-1].x1, z0=contour[1][-1].z1)
         contour[1].extend(cuts)
-        if first and not step.contour_end:
-            contour[2][:] = [len(contour[0]), len(contour[1])]
         if step.contour_end:
             self._contour = None
-            skip_nominal, skip_written = contour[2]
-            self._check_monotone(step, contour[0][skip_nominal:], contour[1][skip_written:])
+            self._check_monotone(step, *contour)
 
     def _check_monotone(self, step: Step, nominal: list[Cut], written: list[Cut]) -> None:
         """A G71/G72 contour must keep running one way in each axis it ran one way before."""

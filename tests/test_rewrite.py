@@ -230,24 +230,6 @@ def test_a_cycle_contour_that_would_turn_back_is_refused():
     assert "N20" in out
 
 
-def test_the_cycle_contour_is_judged_from_where_its_approach_ends():
-    """N10 runs from the cycle's start point down to the contour, at every roughing pass: the
-    contour after it must run one way in X, and a correction that dips X at the arc's start
-    (where the arc runs along Z) is refused, though the approach ran the other way."""
-    text = ("G18 G21 G99\nG00 X60. Z5.\nG71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\nN10 G00 X20.\nG01 Z0. F0.1\n"
-            "X30.\nG02 X40. Z-5. R5.\nN20 G01 Z-20.\nG70 P10 Q20\n")
-
-    def dip(piece):
-        if not isinstance(piece.segment, Arc):
-            return None
-        t = np.asarray(piece.t, dtype=float)
-        return np.column_stack([-0.006 * np.minimum(t / 0.02, 1.0), np.zeros(len(t))])
-
-    with pytest.raises(SafetyError) as info:
-        rewrite(text, dip, tolerance=0.001)
-    assert "one way in X" in info.value.message and "line 4" in info.value.message
-
-
 def test_no_block_under_cutter_compensation_turns_back_under_the_nose_radius():
     """Under G42 the control shortens each block's offset by r tan(phi/2) at each corner; no block
     may be shorter than what its corners take away (the interference check would alarm)."""
