@@ -28,8 +28,8 @@ from typing import TYPE_CHECKING, Iterable, Iterator
 
 from . import gcodes as G
 from .blocks import BLOCK, HEADER, Block
-from .corners import CornerError, corner_moves
-from .diagnostics import InterpretationError, Location, Reporter, SafetyError
+from .corners import corner_moves
+from .diagnostics import CornerError, InterpretationError, Location, Reporter, SafetyError
 from .fastpath import canonical_block
 from .motion import ARC, CONTOUR, CYCLE, LINE, RAPID, REPLAY, RUN, THREAD, Modal, Move, Step
 from .profile import DEFAULT, MachineProfile

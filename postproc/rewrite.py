@@ -824,8 +824,9 @@ class Rewriter:
         try:
             for block in read_blocks(lines, "<replacement>"):
                 moves.extend(checker.step(block).moves)
-        except Exception as exc:  # the replacement must parse and interpret
-            raise SafetyError(f"self-check: the replacement does not read back ({exc})", _where(self.file, step)) from None
+        except PostprocError as exc:  # the replacement must parse and interpret; anything else is a bug (exit 5)
+            raise SafetyError(f"self-check: the replacement does not read back ({exc.message})",
+                              _where(self.file, step)) from None
         if len(moves) != len(cuts):
             raise SafetyError(f"self-check: {len(cuts)} moves planned, {len(moves)} read back", _where(self.file, step))
         for planned, move in zip(cuts, moves):

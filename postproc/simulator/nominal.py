@@ -24,8 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..diagnostics import Location, OptionError, Reporter
-from ..features import MIN_TOUCHES, Feature, Spread, SpreadError, features, spread
+from ..diagnostics import Location, OptionError, Reporter, SpreadError
+from ..features import MIN_TOUCHES, Feature, Spread, features, spread
 from ..geometry import Profile, segment_of
 from ..motion import ARC, CONTOUR, CYCLE, LINE, Move
 from ..profile import DEFAULT, MachineProfile
