@@ -292,7 +292,7 @@ class Interpreter:
             self._start_expected_contour(block)
         in_contour = self._capture is not None
         if block.label is not None and self._is_jump_target(block.label):
-            self._forget("a jump may arrive here")
+            self._forget()  # a jump may arrive here
         if (
             self._fast
             and not in_contour
@@ -426,7 +426,7 @@ class Interpreter:
         self.x, self.z = end_x, end_z
         return Step(block, moves, self.modal, interpreted=False)
 
-    def _forget(self, reason: str) -> None:
+    def _forget(self) -> None:
         """Control flow may arrive with other values: forget what only one path knew."""
         self.variables = {}
         self.x = self.z = None
@@ -561,7 +561,7 @@ class Interpreter:
         may be the reader's light tuple."""
         label, g, x, z, i, k, r, f = fields
         if label is not None and self._jumps is not False and self._is_jump_target(int(label)):
-            self._forget("a jump may arrive here")
+            self._forget()  # a jump may arrive here
         modal = self.modal
         motion = modal.motion if g is None else _FAST_MOTION[g]
         if motion not in _FAST_MODES:
@@ -654,11 +654,11 @@ class Interpreter:
         elif kind is macro.IfGoto:
             condition = self._evaluate(statement.condition, block)
             if condition is not UNKNOWN and condition:
-                self._forget("the jump is taken")
+                self._forget()  # the jump is taken
         elif kind is macro.Goto:
-            self._forget("the jump is taken")
+            self._forget()  # the jump is taken
         elif kind in (macro.WhileDo, macro.DoLoop, macro.EndLoop):
-            self._forget("a loop may run again")
+            self._forget()  # a loop may run again
         return Step(block, (), self.modal)
 
     def _assign(self, assignment: macro.Assignment, block: Block) -> None:
@@ -919,7 +919,7 @@ class Interpreter:
 
     # ------------------------------------------------------------------ positions
 
-    def _target(self, words: _Words, absolute_ok: bool = True) -> tuple[float | None, float | None]:
+    def _target(self, words: _Words) -> tuple[float | None, float | None]:
         """The end point the block's X/Z/U/W words name (radius mm), None where unknown."""
         values = words.values
         diameter = 0.5 if self.profile.diameter_x else 1.0

@@ -259,7 +259,7 @@ class Spool:
     def __enter__(self) -> "Spool":
         return self
 
-    def __exit__(self, kind, value, traceback) -> None:
+    def __exit__(self, kind, value, _traceback) -> None:
         if kind is not None or self.keep:
             self.discard()
 
