@@ -402,7 +402,8 @@ def fit(plugins, ballbar, probe, calibration, options, machine, note, force, out
     guard([("--ballbar", name) for name in ballbar] + [("--probe", name) for name in probe]
           + [("--calibration", calibration), ("--machine", machine)], [("-o", output)])
     reporter = Reporter(sys.stderr)
-    request = Request(list(plugins), list(ballbar), list(probe), calibration, None, list(options), force=force)
+    request = Request(plugins=list(plugins), ballbar=list(ballbar), probe=list(probe), calibration=calibration,
+                      options=list(options), force=force)
     pipeline = Pipeline(request, _profile(machine), reporter)
     write_atomically(output, dumps(pipeline.saved_model(note)).encode())
     reporter.close()
