@@ -2,22 +2,16 @@
 
 from __future__ import annotations
 
-import math
-
-import numpy as np
-
 from postproc.ballbar_analysis import backlash_signs, jointly_centred
-from postproc.compensator import Compensator, Measurements, Option, Piece
-from postproc.diagnostics import Location, MeasurementError, OptionError
-from postproc.geometry import Arc
+from postproc.compensator import Measurements
+from postproc.diagnostics import Location, MeasurementError
 from postproc.hookspecs import hookimpl
-from postproc.measurements.ballbar import BallbarTrace, pair
+from postproc.measurements.ballbar import pair
+from postproc.trace_inversion import TraceInversion
 from postproc.traces import trace_from_model, trace_model
 
-MAPPINGS = ("absolute", "relative", "center-offset")
 
-
-class BallbarInverse(Compensator):
+class BallbarInverse(TraceInversion):
     """Invert a ballbar trace about the nominal on every feed arc (docs/methods.md §4, §6).
 
     What it corrects: the radial error the ballbar saw, at each angle, on arcs cut with
@@ -50,12 +44,6 @@ class BallbarInverse(Compensator):
     """
 
     name = "ballbar-inverse"
-    takes = ("ballbar",)
-    needs = ("ballbar",)
-    options = (
-        Option("radius-mapping", str, None, "how a trace applies to an arc of another radius", MAPPINGS),
-        Option("max-gap", float, 5.0, "largest gap in the trace over an arc's span, degrees", positive=True),
-    )
 
     def fit(self, measurements: Measurements) -> None:
         traces = measurements.ballbar
@@ -83,53 +71,6 @@ class BallbarInverse(Compensator):
         for text in (problem, caution):
             if text:
                 self.context.reporter.warn(f"{self.name}: {text}", where)
-
-    def _trace(self, cw: bool) -> BallbarTrace:
-        direction = "cw" if cw else "ccw"
-        trace = self.traces.get(direction)
-        if trace is None:
-            trace = next(iter(self.traces.values()))
-            if not self._warned:
-                self._warned = True
-                self.context.reporter.warn(
-                    f"{self.name}: {'G02' if cw else 'G03'} arcs take the {trace.direction} trace: no {direction} trace given",
-                    Location(trace.path))
-        return trace
-
-    def correct(self, piece: Piece) -> np.ndarray | None:
-        arc = piece.segment
-        if not isinstance(arc, Arc):
-            return None
-        trace = self._trace(arc.cw)
-        points = piece.points
-        radial = (points - np.array(arc.centre)) / arc.r
-        theta = np.degrees(np.arctan2(radial[:, 1], radial[:, 0]))
-        start, end = sorted((math.degrees(arc.theta0), math.degrees(arc.theta1)))
-        trace.require(start % 360.0, end % 360.0, self.settings["max-gap"], f"{self.name} on the arc of line {piece.move.line}")
-        mapping = self.settings["radius-mapping"]
-        if mapping is None:
-            if abs(arc.r - trace.radius) > 0.05 * trace.radius:
-                raise OptionError(
-                    f"{self.name}: the arc of line {piece.move.line} has radius {arc.r:.3f} mm, the trace "
-                    f"{trace.radius:.3f} mm; give --option radius-mapping=absolute|relative|center-offset")
-            mapping = "absolute"
-        if mapping == "center-offset":
-            shift = self._centre_shift(trace, start, end)
-            return np.broadcast_to(-np.array(shift), points.shape).copy()
-        error = trace.at(theta, None)  # required above: the samples cover the arc's span
-        if mapping == "relative":
-            error = error * arc.r / trace.radius
-        return -error[:, None] * radial
-
-    @staticmethod
-    def _centre_shift(trace: BallbarTrace, start: float, end: float) -> tuple[float, float]:
-        """The shift of a circle of the trace's radius fitted to the trace over [start, end]."""
-        from postproc.fitting import fit_centre
-
-        inside = ((trace.angles - start) % 360.0) <= ((end - start) % 360.0 or 360.0)
-        points = trace.points()[inside] - np.array(trace.centre)
-        fit = fit_centre(points, trace.radius, start=(0.0, 0.0))
-        return fit.xc, fit.zc
 
     def model(self) -> dict:
         return {"traces": {direction: trace_model(trace) for direction, trace in self.traces.items()}}

@@ -1,7 +1,8 @@
 """The measurement formats of docs/formats.md §3-§6, registered as every shop's reader would be.
 
-They come last and accept any file, so that a file no shop reader takes gets the
-built-in reader's exact message (wrong magic line, empty, binary, UTF-16...).
+Their hook implementation is ``trylast``, so pluggy puts them after every shop reader that
+is not; they accept any file, so that a file no shop reader takes gets the built-in reader's
+exact message (wrong magic line, empty, binary, UTF-16...).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ def _any(path: str) -> bool:
     return True
 
 
-@hookimpl
+@hookimpl(trylast=True)
 def postproc_measurement_readers():
     return [
         MeasurementReader("ballbar", "postproc ballbar 1", _any,

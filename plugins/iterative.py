@@ -2,50 +2,15 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from postproc.compensator import Measurements, Option
 from postproc.diagnostics import Location, MeasurementError
 from postproc.hookspecs import hookimpl
 from postproc.measurements.ballbar import BallbarTrace
+from postproc.trace_inversion import Summed, TraceInversion
 from postproc.traces import trace_from_model, trace_model
-from postproc_plugins.ballbar_inverse import BallbarInverse
 
 
-class Summed:
-    """The summed residual of a direction's iterations, read like one trace."""
-
-    def __init__(self, traces: list[BallbarTrace], threshold: float | None):
-        self.traces = traces
-        self.threshold = threshold
-        first = traces[0]
-        self.path, self.radius, self.direction, self.centre = first.path, first.radius, first.direction, first.centre
-
-    def at(self, theta_deg, max_gap: float | None = None) -> np.ndarray:
-        """e_sum(theta) = sum of e_i(theta) (eq. 6.2); selective: only where |e_i| > threshold."""
-        total = np.zeros(np.shape(theta_deg))
-        for trace in self.traces:
-            error = trace.at(theta_deg, max_gap)
-            if self.threshold is not None:
-                error = np.where(np.abs(error) > self.threshold, error, 0.0)
-            total = total + error
-        return total
-
-    def require(self, start: float, end: float, max_gap: float, use: str) -> None:
-        for trace in self.traces:
-            trace.require(start, end, max_gap, use)
-
-    def points(self) -> np.ndarray:
-        theta = np.radians(self.traces[0].angles)
-        r = self.radius + self.at(self.traces[0].angles, None)
-        return np.column_stack([self.centre[0] + r * np.cos(theta), self.centre[1] + r * np.sin(theta)])
-
-    @property
-    def angles(self) -> np.ndarray:
-        return self.traces[0].angles
-
-
-class Iterative(BallbarInverse):
+class Iterative(TraceInversion):
     """Invert the sum of the residuals of iterations 1..N (docs/methods.md §5, eq. 6.2).
 
     What it corrects: what ``ballbar-inverse`` corrects, iteratively. Iteration 1 is the
@@ -73,7 +38,7 @@ class Iterative(BallbarInverse):
     """
 
     name = "iterative"
-    options = BallbarInverse.options + (
+    options = TraceInversion.options + (
         Option("selective", float, None, "add a residual only where it exceeds this many mm", positive=True),
     )
 

@@ -7,10 +7,10 @@ from typing import Any, Iterable
 import numpy as np
 
 from postproc.compensator import Option, Piece
-from postproc.diagnostics import Location, MeasurementError, OptionError, SafetyError
+from postproc.diagnostics import FitError, Location, MeasurementError, OptionError, SafetyError
 from postproc.features import MIN_TOUCHES
 from postproc.figures import figures
-from postproc.fitting import FitError, register
+from postproc.fitting import register
 from postproc.geometry import Profile
 from postproc.hookspecs import hookimpl
 from postproc.motion import REPLAY, Move

@@ -75,8 +75,10 @@ class Pipeline:
         self.profile = machine or profiles.DEFAULT
         bounds.in_force(tolerance, max_correction, self.profile)
         self.reporter = reporter or Reporter()
-        self.request = Request(list(plugins), list(ballbar), list(probe), calibration, model, list(options), tolerance,
-                               mode, max_correction, force, list(regions), keep_unplannable, macro_values)
+        self.request = Request(plugins=list(plugins), ballbar=list(ballbar), probe=list(probe), calibration=calibration,
+                               model=model, options=list(options), tolerance=tolerance, mode=mode,
+                               max_correction=max_correction, force=force, regions=list(regions),
+                               keep_unplannable=keep_unplannable, macro_values=macro_values)
         self.core = None
         if plugins or model:
             from .pipeline import Pipeline as Core

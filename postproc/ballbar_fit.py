@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .diagnostics import Location, MeasurementError
+from .diagnostics import Inseparable, Location, MeasurementError, Undetermined
 
 if TYPE_CHECKING:
     from .measurements.ballbar import BallbarTrace
@@ -248,14 +248,6 @@ def machine_errors(samples: Samples, names: Sequence[str]) -> dict[str, tuple[np
 # -- the fit ---------------------------------------------------------------------------------------
 
 
-class Inseparable(MeasurementError):
-    """The traces cannot tell some parameters apart (or from a set-up centre): no solution is unique."""
-
-    def __init__(self, message: str, location: Location | None, names: tuple[str, ...]):
-        super().__init__(message, location)
-        self.names = names
-
-
 @dataclass(frozen=True)
 class JointFit:
     """Model parameters and every mount's set-up centre, fitted together to the samples."""
@@ -422,10 +414,6 @@ def require(result: JointFit, names: Sequence[str] | None = None, limit: float =
         f"3 sigma of the error it models is above {limit * 1000:g} um; measure a longer arc (220 deg or the whole "
         "circle), both directions, or a quieter trace", Location(result.samples.traces[0].path),
         tuple(name for _, name in worst))
-
-
-class Undetermined(Inseparable):
-    """A parameter's uncertainty is too large for its value to mean anything."""
 
 
 def fit_determined(samples: Samples, unit_errors: Mapping[str, tuple[np.ndarray, np.ndarray]],

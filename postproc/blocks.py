@@ -96,7 +96,7 @@ class Block:
         label: int | None = None,
         delete: int | None = None,
         codes: tuple[tuple[str, Value], ...] = (),
-        statement: "Statement | None" = None,
+        statement: Statement | None = None,
         detail: Detail | None = None,
         detailer=None,
         fields: "tuple[str | None, ...] | None" = None,

@@ -17,24 +17,14 @@ import click
 from . import __version__
 from . import profile as profiles
 from .commands.common import FINITE, LOG, guard
-from .diagnostics import (EXIT_INTERNAL, EXIT_WOULD_CHANGE, Location, PostprocError, Reporter, UsageError,
-                          format_message)
+from .diagnostics import (EXIT_INTERNAL, EXIT_WOULD_CHANGE, Location, OutputError, PostprocError, Reporter, Stopped,
+                          UsageError, format_message)
 from .output import STDOUT, Spool
 from .source import Source
 
 EXIT_INTERRUPTED = 128 + signal.SIGINT  #: 130: Ctrl-C, as the shell reports a program it stopped
 EXIT_BROKEN_PIPE = 128 + signal.SIGPIPE  #: 141: the reader of stdout went away
 MAX_JOBS = 1024  #: more processes than any machine runs at once: a typo, refused
-
-
-class Stopped(BaseException):
-    """A signal that ends the run (SIGTERM, SIGHUP): raised where the program is, so that every
-    spool and temporary file is dropped on the way out. A BaseException, as KeyboardInterrupt
-    is, so that no ``except Exception`` in a plugin swallows it."""
-
-    def __init__(self, signum: int):
-        super().__init__(signum)
-        self.signum = signum
 
 
 def _stop(signum, frame):
@@ -359,7 +349,7 @@ def _make_directory(path: str) -> bool:
             raise UsageError(f"--out-dir {path}: exists and is not a directory; give a folder") from None
         return False
     except OSError as exc:
-        from .output import OutputError, explain
+        from .output import explain
 
         raise OutputError(f"cannot create the output folder: {explain(exc)}", Location(path)) from None
     return True
@@ -429,7 +419,8 @@ def fit(plugins, ballbar, probe, calibration, options, machine, note, force, out
     guard([("--ballbar", name) for name in ballbar] + [("--probe", name) for name in probe]
           + [("--calibration", calibration), ("--machine", machine)], [("-o", output)])
     reporter = Reporter(sys.stderr)
-    request = Request(list(plugins), list(ballbar), list(probe), calibration, None, list(options), force=force)
+    request = Request(plugins=list(plugins), ballbar=list(ballbar), probe=list(probe), calibration=calibration,
+                      options=list(options), force=force)
     pipeline = Pipeline(request, _profile(machine), reporter)
     write_atomically(output, dumps(pipeline.saved_model(note)).encode())
     reporter.close()

@@ -13,16 +13,41 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, ClassVar, Iterable, Sequence
 
 import numpy as np
 
 from .diagnostics import Location, ModelError, OptionError, Reporter
+from .geometry import Arc, Line
 from .motion import Move
 from .profile import DEFAULT, MachineProfile
-from .rewrite import Piece
 
 __all__ = ["Compensator", "Option", "Context", "Measurements", "Piece", "parse_options"]
+
+
+@dataclass(frozen=True)
+class Piece:
+    """The part of a move between axis reversals: what a compensator corrects.
+
+    ``x_direction`` and ``z_direction`` say which way each axis travels over the piece
+    (+1, -1). An axis that does not move in the piece keeps the direction it last
+    travelled in, which is where its backlash leaves it; 0 when that is not known.
+    """
+
+    move: Move
+    segment: Line | Arc
+    t: np.ndarray  #: sample parameters on ``segment`` (read-only: shared between pieces)
+    x_direction: int
+    z_direction: int
+
+    @cached_property
+    def points(self) -> np.ndarray:
+        """The nominal points at ``t``: sampled once, for every compensator and the target,
+        so read-only."""
+        points = self.segment.point_at(self.t)
+        points.setflags(write=False)
+        return points
 
 
 @dataclass(frozen=True)

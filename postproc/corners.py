@@ -11,11 +11,8 @@ from __future__ import annotations
 import math
 
 
+from .diagnostics import CornerError
 from .motion import ARC, CORNER, LINE, RUN, Move
-
-
-class CornerError(ValueError):
-    """The corner cannot be made (too large for its moves, or the moves are parallel)."""
 
 
 def _tangent(move: Move, at_end: bool) -> tuple[float, float]:

@@ -9,7 +9,12 @@ Message forms (docs/formats.md §7.2, and §7.3 for the exit codes):
 
 Lines and columns are 1-based everywhere. Every error the user can cause is a
 :class:`PostprocError`; its ``exit_code`` is what the command line returns, and on any
-non-zero exit no output program is written.
+non-zero exit no output program is written. Anything else that escapes a command is a bug:
+exit 5, "internal error", never a refusal.
+
+Every exception class of postproc is here, but for the few a module raises and catches
+within itself as control flow (private, named with a leading underscore) and the command
+line's own usage errors (``commands.common.BadValue``, a click exception).
 """
 
 from __future__ import annotations
@@ -143,6 +148,83 @@ class InternalError(PostprocError):
     """A bug in postproc itself."""
 
     exit_code = EXIT_INTERNAL
+
+
+class OutputError(PostprocError):
+    """The output cannot be written (directory missing or read-only, disk full...)."""
+
+
+class Inseparable(MeasurementError):
+    """The traces cannot tell some parameters apart (or from a set-up centre): no solution is unique."""
+
+    def __init__(self, message: str, location: Location | None, names: tuple[str, ...]):
+        super().__init__(message, location)
+        self.names = names
+
+
+class Undetermined(Inseparable):
+    """A parameter's uncertainty is too large for its value to mean anything."""
+
+
+# -- failures a module reports to its caller ---------------------------------------------------
+# Raised by one step of the work and caught by its caller, which turns them into one of the
+# errors above with the file and position it knows (a corner that cannot be made is an
+# InterpretationError of its block, a plan that cannot be made an UnplannableBlock). Not
+# PostprocErrors: one that escapes its caller is a bug, and exits 5.
+
+
+class FitError(ValueError):
+    """The data do not determine the fit (too few points, collinear points, an unfixed axis)."""
+
+
+class MacroValueError(ValueError):
+    """An expression the control would alarm on (division by zero, SQRT of a negative...)."""
+
+
+#: The limits that can stop a plan (PlanError.limit).
+RESOLUTION, RADIUS_CHECK, TOLERANCE = "output resolution", "arc radius check", "tolerance"
+
+
+class PlanError(ValueError):
+    """No sequence of blocks on the control's grid follows the target within tolerance.
+
+    ``limit`` names what stops it (RESOLUTION, RADIUS_CHECK or TOLERANCE); ``needed`` is the
+    tolerance (mm) the nearest plan found keeps to, None if none was found below 0.1 mm."""
+
+    def __init__(self, message: str, limit: str = TOLERANCE, needed: float | None = None):
+        super().__init__(message)
+        self.limit = limit
+        self.needed = needed
+
+
+class SpreadError(ValueError):
+    """The touches cannot be spread: no feature has room for one (``wanted`` None), or fewer
+    touches were asked for than ``wanted``, the minimum on every feature with room."""
+
+    def __init__(self, message: str, wanted: int | None = None):
+        super().__init__(message)
+        self.wanted = wanted
+
+
+class CornerError(ValueError):
+    """The corner cannot be made (too large for its moves, or the moves are parallel)."""
+
+
+class Collision(Exception):
+    """The stylus overlaps the surface before its approach starts."""
+
+
+# -- the end of a run by a signal --------------------------------------------------------------
+
+
+class Stopped(BaseException):
+    """A signal that ends the run (SIGTERM, SIGHUP): raised where the program is, so that every
+    spool and temporary file is dropped on the way out. A BaseException, as KeyboardInterrupt
+    is, so that no ``except Exception`` in a plugin swallows it."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
 
 
 @dataclass(frozen=True, slots=True)

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .diagnostics import SpreadError
 from .geometry import Arc, Line, Profile, Segment
 
 MIN_TOUCHES = 3  #: the fewest touches on a feature among which one bad touch (the nub, a chip) shows
@@ -149,15 +150,6 @@ def corner_room(angle: float, outward_sign: float, radius: float, clearance: flo
     need = max((radius + min(h - radius, clearance / 4.0) - h * cos) / sin
                for h in (radius, radius + clearance / 4.0, radius + clearance))
     return 1.02 * need + 1e-3  # a margin: arcs bend away from their tangents
-
-
-class SpreadError(ValueError):
-    """The touches cannot be spread: no feature has room for one (``wanted`` None), or fewer
-    touches were asked for than ``wanted``, the minimum on every feature with room."""
-
-    def __init__(self, message: str, wanted: int | None = None):
-        super().__init__(message)
-        self.wanted = wanted
 
 
 @dataclass(frozen=True)

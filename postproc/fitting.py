@@ -15,11 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .diagnostics import FitError
 from .geometry import Profile, as_points
-
-
-class FitError(ValueError):
-    """The data do not determine the fit (too few points, collinear points, an unfixed axis)."""
 
 
 @dataclass(frozen=True)

@@ -41,8 +41,11 @@ def postproc_measurement_readers() -> list[MeasurementReader]:
     A :class:`postproc.measurements.registry.MeasurementReader` names the ``kind`` it reads
     (``ballbar``, ``probe`` or ``calibration``), says whether it ``accepts`` a file (by its
     first bytes, not only its name) and ``read``s it into the same objects the built-in
-    readers make. The first reader that accepts a file reads it; the built-in readers of
-    docs/formats.md §3-§6 are registered through this hook too, after every other plugin's.
+    readers make. The first reader that accepts a file reads it, in pluggy's order of the
+    implementations: ``@hookimpl(tryfirst=True)`` ones first, then unmarked ones (the last
+    registered first), then ``trylast`` ones. The built-in readers of docs/formats.md §3-§6 are
+    registered through this hook too, ``trylast``, and accept every file: a shop's reader
+    comes before them unless it is ``trylast`` itself.
 
     :returns: a list of readers; every implementation's lists are joined.
     """

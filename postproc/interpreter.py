@@ -28,8 +28,8 @@ from typing import TYPE_CHECKING, Iterable, Iterator
 
 from . import gcodes as G
 from .blocks import BLOCK, HEADER, Block
-from .corners import CornerError, corner_moves
-from .diagnostics import InterpretationError, Location, Reporter, SafetyError
+from .corners import corner_moves
+from .diagnostics import CornerError, InterpretationError, Location, Reporter, SafetyError
 from .fastpath import canonical_block
 from .motion import ARC, CONTOUR, CYCLE, LINE, RAPID, REPLAY, RUN, THREAD, Modal, Move, Step
 from .profile import DEFAULT, MachineProfile
@@ -292,7 +292,7 @@ class Interpreter:
             self._start_expected_contour(block)
         in_contour = self._capture is not None
         if block.label is not None and self._is_jump_target(block.label):
-            self._forget("a jump may arrive here")
+            self._forget()  # a jump may arrive here
         if (
             self._fast
             and not in_contour
@@ -428,7 +428,7 @@ class Interpreter:
         self.x, self.z = end_x, end_z
         return Step(block, moves, self.modal, interpreted=False)
 
-    def _forget(self, reason: str) -> None:
+    def _forget(self) -> None:
         """Control flow may arrive with other values: forget what only one path knew."""
         self.variables = {}
         self.x = self.z = None
@@ -563,7 +563,7 @@ class Interpreter:
         may be the reader's light tuple."""
         label, g, x, z, i, k, r, f = fields
         if label is not None and self._jumps is not False and self._is_jump_target(int(label)):
-            self._forget("a jump may arrive here")
+            self._forget()  # a jump may arrive here
         modal = self.modal
         motion = modal.motion if g is None else _FAST_MOTION[g]
         if motion not in _FAST_MODES:
@@ -656,11 +656,11 @@ class Interpreter:
         elif kind is macro.IfGoto:
             condition = self._evaluate(statement.condition, block)
             if condition is not UNKNOWN and condition:
-                self._forget("the jump is taken")
+                self._forget()  # the jump is taken
         elif kind is macro.Goto:
-            self._forget("the jump is taken")
+            self._forget()  # the jump is taken
         elif kind in (macro.WhileDo, macro.DoLoop, macro.EndLoop):
-            self._forget("a loop may run again")
+            self._forget()  # a loop may run again
         return Step(block, (), self.modal)
 
     def _assign(self, assignment: macro.Assignment, block: Block) -> None:
@@ -921,7 +921,7 @@ class Interpreter:
 
     # ------------------------------------------------------------------ positions
 
-    def _target(self, words: _Words, absolute_ok: bool = True) -> tuple[float | None, float | None]:
+    def _target(self, words: _Words) -> tuple[float | None, float | None]:
         """The end point the block's X/Z/U/W words name (radius mm), None where unknown."""
         values = words.values
         diameter = 0.5 if self.profile.diameter_x else 1.0

@@ -17,6 +17,8 @@ import math
 from dataclasses import dataclass
 from typing import Mapping, Union
 
+from .diagnostics import MacroValueError
+
 
 class _Unknown:
     """The value of an expression that depends on data only the control has."""
@@ -155,10 +157,6 @@ _FUNCTIONS = {
     "POW": math.pow,
     "ADP": lambda a: a,
 }
-
-
-class MacroValueError(ValueError):
-    """An expression the control would alarm on (division by zero, SQRT of a negative...)."""
 
 
 def _number(value: "float | None") -> float:

@@ -31,16 +31,12 @@ import tempfile
 from dataclasses import dataclass
 from typing import BinaryIO, Iterable
 
-from .diagnostics import Location, PostprocError, UsageError
+from .diagnostics import Location, OutputError, UsageError
 
 STDOUT = "-"
 KEEP = None  #: a spool whose content the caller reads back (:meth:`Spool.value`) instead of writing it anywhere
 
 _DESCRIPTOR = re.compile(r"^/(?:proc/[^/]+/fd|dev/fd)/\d+$|^/dev/std(?:in|out|err)$")
-
-
-class OutputError(PostprocError):
-    """The output cannot be written (directory missing or read-only, disk full...)."""
 
 
 def explain(exc: OSError, written: bool = False) -> str:
@@ -263,7 +259,7 @@ class Spool:
     def __enter__(self) -> "Spool":
         return self
 
-    def __exit__(self, kind, value, traceback) -> None:
+    def __exit__(self, kind, value, _traceback) -> None:
         if kind is not None or self.keep:
             self.discard()
 

@@ -69,13 +69,15 @@ def select(names: list[str]) -> list[Installed]:
 
 
 def readers() -> list[MeasurementReader]:
-    """Measurement readers, shops' own first and the built-in ones last."""
-    pm = manager()
+    """Measurement readers in pluggy's order of the hook's implementations: ``tryfirst`` ones,
+    then the unmarked ones (the last registered first), then ``trylast`` ones, which the
+    built-in readers are (docs/hooks.md). Each implementation is called here, not through the
+    hook, so that a reader that is not one is refused naming its plugin; pluggy calls the
+    implementations in the reverse of ``get_hookimpls()``, the order kept here."""
     found: list[MeasurementReader] = []
-    builtin: list[MeasurementReader] = []
-    for impl in pm.hook.postproc_measurement_readers.get_hookimpls():
+    for impl in reversed(manager().hook.postproc_measurement_readers.get_hookimpls()):
         for reader in impl.function() or ():
             if not isinstance(reader, MeasurementReader):
                 raise PluginError(impl.plugin_name, f"postproc_measurement_readers returned {reader!r}")
-            (builtin if getattr(impl.plugin, "__name__", "") == "postproc_plugins.formats" else found).append(reader)
-    return found + builtin
+            found.append(reader)
+    return found

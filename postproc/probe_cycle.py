@@ -2,7 +2,7 @@
 
 The program touches N points spread over the features of the nominal profile (its lines and
 arcs, :mod:`postproc.features`; the profile and its material side as ``postproc simulate
-probe`` picks them, :mod:`postproc.simulator.nominal`): at least ``per_feature`` on every
+probe`` picks them, :mod:`postproc.nominal`): at least ``per_feature`` on every
 feature, the rest shared out by length, evenly spaced along each feature and ``inset`` clear
 of its ends (more at a concave corner, where the stylus needs room), and optionally a datum
 before and after them (docs/methods.md §9.3, the stability check). Per feature, because the probe
@@ -46,6 +46,7 @@ from .emitter import Style
 from .features import MIN_TOUCHES, Feature, Spread
 from .geometry import segment_of
 from .motion import ARC, Move
+from .nominal import Nominal
 from .probe_printout import (AFTER, BEFORE, END_STATEMENT, POINT, VAR_COUNT, VAR_DIVISOR, VAR_I, VAR_INDEX, VAR_K,
                              VAR_PROGRAM, VAR_RADIUS, VAR_UNITS, VAR_VERSION, VERSION, header_statement,
                              touch_statement)
@@ -53,7 +54,6 @@ from .probe_route import Envelope, Leg, Router, Surfaces
 from .profile import DEFAULT, MachineProfile
 from .program import interpret_source
 from .resolution import Grid
-from .simulator.nominal import Nominal
 from .source import Source
 
 DATUM_SURFACES = ("face", "diameter", "both")

@@ -31,7 +31,7 @@ import numpy as np
 
 from .geometry import Segment, as_points, segment_of
 from .motion import ARC, LINE, THREAD, Move
-from .simulator.nominal import on_axis
+from .nominal import on_axis
 
 ESCAPES = ((0.0, 1.0), (1.0, 0.0))  #: +Z, then +X: escape lines tried after the outward normal
 SAMPLES_PER_CLEARANCE = 4  #: route checks sample every clearance / 4

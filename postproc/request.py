@@ -8,9 +8,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 
-@dataclass
+@dataclass(kw_only=True)
 class Request:
-    """What the user asked for (the options of ``postproc compensate``)."""
+    """What the user asked for (the options of ``postproc compensate``). Built by keyword only:
+    thirteen fields, several of one type, are too many to fill in by position."""
 
     plugins: list[str] = field(default_factory=list)
     ballbar: list[str] = field(default_factory=list)

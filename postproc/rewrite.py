@@ -25,7 +25,6 @@ from __future__ import annotations
 import math
 import operator
 from dataclasses import dataclass, field, replace
-from functools import cached_property
 from typing import Callable, Iterable, Iterator
 
 import numpy as np
@@ -34,6 +33,7 @@ from . import gcodes as G
 from .blocks import Block
 from .diagnostics import Location, PostprocError, Reporter, SafetyError, UnplannableBlock
 from .bounds import MAX_TOLERANCE
+from .compensator import Piece
 from .emitter import Style, Writer, with_motion_code
 from .farthest import farthest, within
 from .geometry import Arc, Line, segment_of
@@ -53,30 +53,6 @@ MACRO_VALUES = (REFUSE, KEEP, NUMBERS)
 NAMED = 5  #: blocks named one by one in the warnings about macro values; the rest are counted
 STEPS = (0.0005, 0.001)  #: the output grid's x and z steps (radius mm) of a metric diameter program
 BATCH = 256  #: steps read ahead so that their pieces are corrected in one call
-
-
-@dataclass(frozen=True)
-class Piece:
-    """The part of a move between axis reversals: what a compensator corrects.
-
-    ``x_direction`` and ``z_direction`` say which way each axis travels over the piece
-    (+1, -1). An axis that does not move in the piece keeps the direction it last
-    travelled in, which is where its backlash leaves it; 0 when that is not known.
-    """
-
-    move: Move
-    segment: Line | Arc
-    t: np.ndarray  #: sample parameters on ``segment`` (read-only: shared between pieces)
-    x_direction: int
-    z_direction: int
-
-    @cached_property
-    def points(self) -> np.ndarray:
-        """The nominal points at ``t``: sampled once, for every compensator and the target,
-        so read-only."""
-        points = self.segment.point_at(self.t)
-        points.setflags(write=False)
-        return points
 
 
 def sample_lines(parts: list[Piece]) -> None:
@@ -848,8 +824,9 @@ class Rewriter:
         try:
             for block in read_blocks(lines, "<replacement>"):
                 moves.extend(checker.step(block).moves)
-        except Exception as exc:  # the replacement must parse and interpret
-            raise SafetyError(f"self-check: the replacement does not read back ({exc})", _where(self.file, step)) from None
+        except PostprocError as exc:  # the replacement must parse and interpret; anything else is a bug (exit 5)
+            raise SafetyError(f"self-check: the replacement does not read back ({exc.message})",
+                              _where(self.file, step)) from None
         if len(moves) != len(cuts):
             raise SafetyError(f"self-check: {len(cuts)} moves planned, {len(moves)} read back", _where(self.file, step))
         for planned, move in zip(cuts, moves):

@@ -31,7 +31,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .fitting import FitError, hyper_fit
+from .diagnostics import RADIUS_CHECK, RESOLUTION, TOLERANCE, FitError, PlanError
+from .fitting import hyper_fit
 from .geometry import TAU, Arc, Line, Segment
 from .resolution import Grid, rounded
 
@@ -755,22 +756,6 @@ def _straight(target: Target, limits: Limits) -> Plan | None:
     if deviation > limits.tolerance:
         return None
     return Plan([Cut(a[0], a[1], b[0], b[1])], deviation, "line")
-
-
-#: The limits that can stop a plan (PlanError.limit).
-RESOLUTION, RADIUS_CHECK, TOLERANCE = "output resolution", "arc radius check", "tolerance"
-
-
-class PlanError(ValueError):
-    """No sequence of blocks on the control's grid follows the target within tolerance.
-
-    ``limit`` names what stops it (RESOLUTION, RADIUS_CHECK or TOLERANCE); ``needed`` is the
-    tolerance (mm) the nearest plan found keeps to, None if none was found below 0.1 mm."""
-
-    def __init__(self, message: str, limit: str = TOLERANCE, needed: float | None = None):
-        super().__init__(message)
-        self.limit = limit
-        self.needed = needed
 
 
 def chord_minimum(radius: float, sweep: float, tolerance: float) -> int:

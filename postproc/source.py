@@ -19,7 +19,7 @@ import tempfile
 from functools import cached_property
 from typing import BinaryIO, Iterator
 
-from .diagnostics import STDIN_NAME, Location, ProgramError
+from .diagnostics import STDIN_NAME, Location, OutputError, ProgramError
 
 CHUNK = 1 << 20
 MAX_PROGRAM_BYTES = 2 * 1024**3  #: 2 GiB: far beyond any control's memory
@@ -139,7 +139,7 @@ class Source:
         try:
             self._file.write(chunk)
         except OSError as exc:
-            from .output import OutputError, explain
+            from .output import explain
 
             raise OutputError(f"cannot keep a copy of the program in {tempfile.gettempdir()} (TMPDIR): "
                               f"{explain(exc)}", Location(self.name)) from None

@@ -9,7 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from postproc.features import MIN_TOUCHES, SpreadError, corner_room, features, owners, spread
+from postproc.diagnostics import SpreadError
+from postproc.features import MIN_TOUCHES, corner_room, features, owners, spread
 from postproc.geometry import Arc, Line, Profile
 
 # A shaft's outside, cut towards -Z, material towards the axis: chamfer, diameter in two blocks, a concave

@@ -218,6 +218,85 @@ def test_postproc_measurement_readers_come_before_the_built_in_ones(run, tmp_pat
         manager.unregister(plugin)
 
 
+def _named_reader(name: str, magic: str, **order):
+    """A plugin object with one ballbar reader that accepts files whose first line is ``magic``
+    and reads them as postproc traces, marked ``tryfirst``/``trylast`` as ``order`` says."""
+    from postproc.measurements.ballbar import read_ballbar
+    from postproc.measurements.csvfile import snapshot
+    from postproc.measurements.registry import MeasurementReader, first_line
+
+    def read(path, context):
+        text = snapshot(path).data.decode().replace(magic, "# postproc ballbar 1", 1)
+        converted = Path(path).with_suffix(f".{name}.csv")
+        converted.write_text(text)
+        return read_ballbar(str(converted), context.reporter)
+
+    class Plugin:
+        @hookspecs.hookimpl(**order)
+        def postproc_measurement_readers(self):
+            return [MeasurementReader("ballbar", name, lambda path: first_line(path) == magic, read)]
+
+    return Plugin()
+
+
+@pytest.fixture
+def registered():
+    """Register plugin objects for one test (in the order given), unregistered after it."""
+    manager = registry.manager()
+    added = []
+
+    def register(*plugins):
+        for index, plugin in enumerate(plugins):
+            manager.register(plugin, name=f"reader-order-{len(added)}-{index}")
+            added.append(plugin)
+
+    yield register
+    for plugin in added:
+        manager.unregister(plugin)
+
+
+def _ballbar_names():
+    return [reader.name for reader in registry.readers() if reader.kind == "ballbar"]
+
+
+def test_readers_come_in_pluggys_order_tryfirst_plain_then_the_built_in_trylast(registered):
+    """An unmarked shop reader comes before the built-in one (trylast), the shop reader
+    registered last first; a tryfirst one comes before every unmarked one, whenever it was
+    registered. The order is pluggy's own: that of the hook's call."""
+    registered(_named_reader("early-tryfirst", "# A", tryfirst=True), _named_reader("plain", "# B"),
+               _named_reader("later", "# C"))
+    names = _ballbar_names()
+    assert names == ["early-tryfirst", "later", "plain", "postproc ballbar 1"]
+    called = [reader.name for found in registry.manager().hook.postproc_measurement_readers() for reader in found]
+    assert [reader.name for reader in registry.readers()] == called
+
+
+def test_a_tryfirst_reader_takes_a_file_before_another_shops_reader(registered, run, tmp_path):
+    """Two shop readers both accept the file: the tryfirst one reads it, though registered first."""
+    registered(_named_reader("first", "# SHOP", tryfirst=True), _named_reader("second", "# SHOP"))
+    trace = tmp_path / "shop.csv"
+    rows = "".join(f"{a},0.005\n" for a in range(0, 360, 2))
+    trace.write_text(f"# SHOP\n# radius_mm = 57.15\n# direction = ccw\n# centered = true\nangle_deg,deviation_mm\n{rows}")
+    result = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", str(trace))
+    assert result.exit_code == 0, result.stderr
+    assert (tmp_path / "shop.first.csv").exists() and not (tmp_path / "shop.second.csv").exists()
+
+
+def test_a_file_no_shop_reader_accepts_falls_back_to_the_built_in_reader(registered, run, tmp_path):
+    """A shop reader that declines a file leaves it to the built-in reader: a postproc trace is
+    read as ever, and a file nobody reads gets the built-in reader's exact message."""
+    registered(_named_reader("shop", "# SHOP", tryfirst=True))
+    result = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", CCW, "--ballbar", CW,
+                 "--option", "radius-mapping=relative")
+    assert result.exit_code == 0, result.stderr
+    assert not list((SAMPLES / "ballbar").glob("*.shop.csv"))
+    wrong = tmp_path / "wrong.csv"
+    wrong.write_text("# some other format\n1,2\n")
+    refused = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", str(wrong))
+    assert refused.exit_code == 3 and refused.stdout == ""
+    assert refused.stderr.startswith(f"{wrong}:1: error: ") and "postproc ballbar 1" in refused.stderr
+
+
 class _Hangs(_Raises):
     """Never returns."""
 

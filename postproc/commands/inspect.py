@@ -29,11 +29,11 @@ from ..diagnostics import EXIT_WOULD_CHANGE, OptionError, Reporter
 from ..figures import figures
 from ..geometry import Profile, segment_of
 from ..measurements.registry import ReadContext, read as read_measurement
+from ..nominal import chain, read_program
 from ..plugins import readers
 from ..pretravel import fit_calibration
 from ..probing import FORCE_FLAG, ProbedProfile, probe_profile
 from ..profile import DEFAULT, load
-from ..simulator.nominal import chain, read_program
 from .common import FINITE, guard
 
 EXIT_RECUT = EXIT_WOULD_CHANGE  #: as ``--check``: the part would change if the loop goes on

@@ -19,10 +19,10 @@ import sys
 import click
 
 from ..diagnostics import Location, Reporter, UsageError
+from ..nominal import MATERIAL, nominal, read_program
 from ..output import STDOUT, write_atomically
 from ..probe_cycle import DATUM_SURFACES, Cycle, code_digits, plan, self_check
 from ..profile import DEFAULT, load
-from ..simulator.nominal import MATERIAL, nominal, read_program
 from .common import FINITE, guard
 
 DEFAULTS = Cycle()

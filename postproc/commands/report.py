@@ -57,7 +57,8 @@ def command(program, output, plugins, ballbar, probe, calibration, model, option
     if program is not None:
         with Source(program) as source:
             loaded = (source.name, source.read_bytes())
-    request = Request(list(plugins), list(ballbar), list(probe), calibration, model, list(options), tolerance)
+    request = Request(plugins=list(plugins), ballbar=list(ballbar), probe=list(probe), calibration=calibration,
+                      model=model, options=list(options), tolerance=tolerance)
     profile = profiles.load(machine) if machine else profiles.DEFAULT
     inputs = Inputs(loaded, request, machine, profile, _command_line(program, output, request, machine, band), band)
     document = build(inputs, reporter)

@@ -18,10 +18,11 @@ import click
 
 from ..diagnostics import OptionError, Reporter
 from ..features import MIN_TOUCHES
+from ..nominal import MATERIAL
 from ..output import STDOUT, write_atomically
 from ..simulator import ballbar_test, calibrate, cut, generator, inspect, load, nominal, probe_profile
 from ..simulator.files import calibration_text, probe_text, read_surface, surface_text, trace_text
-from ..simulator.nominal import MATERIAL, run_program
+from ..simulator.nominal import run_program
 from .common import FINITE, guard
 
 

@@ -1,6 +1,6 @@
 """The predicted profile of a program before and after compensation, on the virtual lathe.
 
-The program's profile is its first continuous chain of feed moves (:mod:`postproc.simulator.nominal`).
+The program's profile is its first continuous chain of feed moves (:mod:`postproc.nominal`).
 Deviations are read, as the virtual CMM reads them, where a surface crosses the nominal
 normal at stations evenly spaced along the profile: positive = material left. Three things
 can be predicted there:

@@ -4,7 +4,8 @@ One job per module:
 
 - :mod:`.config`: the ``[simulation]`` table of a machine profile (every key documented there);
 - :mod:`.errors`: the machine error model (equations and sign conventions there);
-- :mod:`.path`: commanded paths sampled in time; :mod:`.nominal`: a program's profile;
+- :mod:`.path`: commanded paths sampled in time; :mod:`postproc.nominal`: a program's profile
+  (:mod:`.nominal`: the wear offsets its G10 blocks set);
 - :mod:`.surface`: what a stylus or a CMM touches;
 - :mod:`.ballbar`, :mod:`.cut`, :mod:`.touch` + :mod:`.probe`, :mod:`.calibrate`, :mod:`.cmm`:
   the ballbar test, cutting, probing a profile, calibrating on the sphere, inspecting;
@@ -17,16 +18,17 @@ deviation: along the normal out of the material, positive = material left. Noise
 :func:`.config.generator`: the same seed gives the same files.
 """
 
+from .nominal import run_program  # the submodule first: the function ``nominal`` below then takes its name here
+from ..nominal import Nominal, nominal, read_program
 from .ballbar import BallbarRun, ballbar_test
 from .calibrate import CalibrationRun, calibrate
 from .cmm import Inspection, inspect
 from .config import Simulation, generator, load
 from .cut import cut
 from .errors import Machine
-from .nominal import Nominal, nominal, read_program
 from .probe import ProbeRun, probe_profile
 from .surface import Turned
 
 __all__ = ["BallbarRun", "CalibrationRun", "Inspection", "Machine", "Nominal", "ProbeRun", "Simulation", "Turned",
            "ballbar_test", "calibrate", "cut", "generator", "inspect", "load", "nominal", "probe_profile",
-           "read_program"]
+           "read_program", "run_program"]

@@ -14,8 +14,8 @@ import numpy as np
 
 from ..diagnostics import Location, MeasurementError
 from ..figures import Figures, figures
+from ..nominal import Nominal
 from .config import Simulation
-from .nominal import Nominal
 from .surface import Turned
 
 REACH = 1.0  #: mm: a surface farther than this from the nominal is not this program's surface

@@ -2,7 +2,7 @@
 
 The control runs every move of the program (so that lost motion and servo lag carry over
 from one move to the next); the surface is what the tool tip leaves along the profile
-(:mod:`.nominal`):
+(:mod:`postproc.nominal`):
 
 1. actual tool path = commanded + machine error (:mod:`.errors`) + tool-setting offset + the
    wear the program's G10 blocks gave the move's offset number (``wear``,
@@ -26,9 +26,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..motion import Move
+from ..nominal import Nominal
 from .config import Simulation
 from .errors import Machine
-from .nominal import Nominal
 from .path import sample
 from .surface import Turned
 

@@ -19,9 +19,7 @@ from typing import Protocol
 
 import numpy as np
 
-
-class Collision(Exception):
-    """The stylus overlaps the surface before its approach starts."""
+from ..diagnostics import Collision
 
 
 class Touchable(Protocol):

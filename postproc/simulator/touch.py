@@ -19,11 +19,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..diagnostics import Location, MeasurementError
+from ..diagnostics import Collision, Location, MeasurementError
 from ..measurements.probe import approach_theta
 from .config import Simulation
 from .errors import Machine
-from .surface import Collision, Touchable
+from .surface import Touchable
 
 ITERATIONS = 3  #: the errors depend on where the touch happens; this settles them below 1e-9 mm
 

@@ -1,0 +1,57 @@
+"""The architecture held by tools (docs/architecture.md): the import contracts of pyproject.toml
+(import-linter) and no dead code (vulture at 80 % confidence)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import REPO
+
+BIN = Path(sys.executable).parent
+CONTRACTS = 5  #: the contracts in pyproject.toml's [tool.importlinter]
+
+
+def _tool(name: str) -> str:
+    path = BIN / name
+    if not path.exists():
+        pytest.fail(f"{name} is not installed in this environment: pip install -e '.[test]'")
+    return str(path)
+
+
+def _run(*args: str, cwd: Path = REPO) -> subprocess.CompletedProcess:
+    return subprocess.run(args, capture_output=True, text=True, cwd=cwd)
+
+
+def test_the_import_contracts_are_kept():
+    result = _run(_tool("lint-imports"), "--no-cache")
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert f"Contracts: {CONTRACTS} kept, 0 broken." in result.stdout
+
+
+def test_lint_imports_finds_a_broken_contract(tmp_path):
+    """The check above can fail: a contract the code does not keep (the rewriter imports the
+    segmenter) is reported broken, naming the import."""
+    config = tmp_path / "contracts.toml"
+    config.write_text('[tool.importlinter]\nroot_packages = ["postproc"]\n\n[[tool.importlinter.contracts]]\n'
+                      'name = "made to break"\ntype = "forbidden"\nsource_modules = ["postproc.rewrite"]\n'
+                      'forbidden_modules = ["postproc.segmenter"]\n')
+    result = _run(_tool("lint-imports"), "--no-cache", "--config", str(config))
+    assert result.returncode == 1
+    assert "BROKEN" in result.stdout and "postproc.rewrite -> postproc.segmenter" in result.stdout
+
+
+def test_no_dead_code():
+    result = _run(_tool("vulture"), "postproc", "plugins", "--min-confidence", "80")
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_vulture_finds_dead_code(tmp_path):
+    """The check above can fail: an unused import and an unused parameter are found."""
+    (tmp_path / "module.py").write_text("import os\n\n\ndef used(a, unused):\n    return a\n\n\nused(1, 2)\n")
+    result = _run(_tool("vulture"), "module.py", "--min-confidence", "80", cwd=tmp_path)
+    assert result.returncode == 3
+    assert "unused import 'os'" in result.stdout and "unused variable 'unused'" in result.stdout
