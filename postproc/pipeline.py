@@ -190,13 +190,13 @@ class Pipeline:
                     body.write("".join(line + anchor.block.eol for _, line in opening).encode())
             for compensator in self.compensators:
                 self._guarded(compensator, "finish", compensator.finish, model=self.request.model)
-            self._say_what_changed(rewriter, source.name)
             spool.write("".join(lead).encode("utf-8", "surrogateescape"))
             if region.ranges and not region.matched and not opening:  # nothing done is said, and not marked as done
                 self.reporter.warn(f"--region {' '.join(self.request.regions)} selects no block that could be "
                                    "compensated: the program is written back unchanged and not marked COMPENSATED",
                                    Location(source.name))
             else:
+                self._say_what_changed(rewriter, source.name, bool(opening))
                 eol = _eol(next(source.lines(), ""))
                 added = [f"{name} ADDED {line} AFTER LINE {anchor.block.line}" for name, line in opening]
                 spool.write(self._provenance(rewriter, eol, added).encode())
@@ -205,11 +205,13 @@ class Pipeline:
                 spool.write(chunk)
         return rewriter
 
-    def _say_what_changed(self, rewriter: Rewriter, name: str) -> None:
+    def _say_what_changed(self, rewriter: Rewriter, name: str, added: bool) -> None:
         """A run that changed no feed move, or whose corrections all lie within the tolerance
         (so the written path may be as near the nominal as the compensated), says so: its
         header still reads COMPENSATED, and a shop must not take that for a corrected part."""
         if rewriter.replaced == 0:
+            if added:  # a compensator's own blocks (tool-offset's G10) are the change
+                return
             self.reporter.warn("no feed move was changed (the program has none the compensators reach): it is "
                                "written as it was, under a provenance header", Location(name))
             return
