@@ -218,7 +218,7 @@ def test_omp_feedback_refuses_thin_evidence_naming_the_feature_and_its_rows(keep
 
 
 def test_omp_feedback_screens_the_nub_out_of_three_touches(tmp_path):
-    """The nub (27.7 um high) and two touches beside it: the nub is dropped, no dip is cut at the pole."""
+    """The nub (26.4 um high) and two touches beside it: the nub is dropped, no dip is cut at the pole."""
     probe, calibration = sample_rows(tmp_path, [1, 2, 3])
     pipeline = Pipeline(plugins=["omp-feedback"], probe=[probe], calibration=calibration)
     text = pipeline.compensate_text(Path(HEMISHELL).read_text())

@@ -20,7 +20,7 @@ from ..diagnostics import OptionError, Reporter
 from ..features import MIN_TOUCHES
 from ..output import STDOUT, write_atomically
 from ..simulator import ballbar_test, calibrate, cut, generator, inspect, load, nominal, probe_profile
-from ..simulator.files import calibration_text, probe_text, read_surface, surface_text, trace_text
+from ..simulator.files import calibration_text, cmm_probe_text, probe_text, read_surface, surface_text, trace_text
 from ..simulator.nominal import MATERIAL, run_program
 
 
@@ -173,15 +173,26 @@ def calibrate_command(machine, seed, radius, center_x, center_z, step_deg, outpu
 @click.option("--surface", metavar="FILE", help="The surface to inspect (from 'simulate cut'); default: cut it now.")
 @click.option("--points", type=int, metavar="N", help="Points along the profile (default: the table's).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of the figures.")
+@click.option("--inset", type=float, metavar="MM",
+              help="Spread the points over the profile's features, this far from each feature's ends, as "
+                   "'simulate probe --inset' does (default: evenly along the whole profile, both ends included).")
+@click.option("--probe-file", metavar="FILE",
+              help="Also write the CMM's points as a probe file (docs/formats.md §5), as a CMM measuring "
+                   "independently of the machine's axes reports them: for error-map's --probe.")
 @_machine
 @_seed
-def inspect_command(program, from_line, to_line, material, surface, points, as_json, machine, seed):
+def inspect_command(program, from_line, to_line, material, surface, points, as_json, inset, probe_file, machine, seed):
     """A virtual CMM: deviations from the nominal profile along its normal, and the four figures."""
     points = _count(points)
+    if inset is not None and not inset >= 0:
+        raise OptionError(f"--inset {inset:g}: the inset must not be negative")
     simulation, name, moves, profile_of, wear = _setup(machine, program, from_line, to_line, material)
     seed = simulation.seed if seed is None else seed
     result = inspect(_surface(surface, simulation, moves, profile_of, wear), profile_of, simulation,
-                     generator(seed, "inspect"), points)
+                     generator(seed, "inspect"), points, inset)
+    if probe_file:
+        write_atomically(probe_file, cmm_probe_text(result, simulation.probe.stylus_radius_mm,
+                                                    _provenance("inspect", machine, seed, name)).encode())
     if as_json:
         click.echo(json.dumps({"program": name, **result.as_dict()}, indent=2, allow_nan=False))
     else:

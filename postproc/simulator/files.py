@@ -23,6 +23,7 @@ from ..measurements.csvfile import read_table
 from ..measurements.probe import CALIBRATION_MAGIC, PROBE_MAGIC
 from .ballbar import BallbarRun
 from .calibrate import CalibrationRun
+from .cmm import Inspection
 from .probe import ProbeRun
 from .surface import Turned
 
@@ -70,6 +71,17 @@ def probe_text(run: ProbeRun, provenance: dict[str, object]) -> str:
     if run.datum_before:
         keys["repeatability_mm"] = f"{run.repeatability:.10g}"
     return "\n".join(_header(PROBE_MAGIC, keys, provenance) + _touch_rows(run.centres, run.approach)) + "\n"
+
+
+def cmm_probe_text(inspection: Inspection, stylus_radius: float, provenance: dict[str, object]) -> str:
+    """The CMM's points as a probe file: at each point the stylus centre a CMM with a ball of
+    ``stylus_radius`` reports, touching along the nominal normal (its own probing errors already
+    compensated, as a CMM's software does), so that ``C + R_stylus n`` is the measured point."""
+    normals = inspection.normals
+    measured = inspection.points + inspection.deviations[:, None] * normals
+    keys = {"stylus_radius_mm": f"{stylus_radius:.10g}"}
+    return "\n".join(_header(PROBE_MAGIC, keys, provenance)
+                     + _touch_rows(measured + stylus_radius * normals, -normals)) + "\n"
 
 
 def calibration_text(run: CalibrationRun, provenance: dict[str, object]) -> str:
