@@ -204,7 +204,7 @@ def test_bad_calibrations(run, tmp_path):
 
 OPTIONS = [
     (["--plugin", "telepathy"], 3, "postproc: error: --plugin telepathy: no compensator of that name is installed "
-                                   "(installed: ballbar-inverse, effective-angle, iterative, omp-feedback, parametric, tool-offset)"),
+                                   "(installed: ballbar-inverse, effective-angle, error-map, iterative, omp-feedback, parametric, tool-offset)"),
     (["--tolerance", "0"], 3, "postproc: error: --tolerance 0.0: the tolerance must be positive"),
     (["--tolerance", "-0.001"], 3, "postproc: error: --tolerance -0.001: the tolerance must be positive"),
     (["--max-correction", "-1"], 3, "postproc: error: --max-correction -1.0: must be positive"),
