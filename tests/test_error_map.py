@@ -115,11 +115,11 @@ def test_a_rigid_motion_of_the_field_is_invisible_to_every_ballbar(tx, tz, rotat
     set-up offsets and the fitted map is the same: the map's gauge decides, not the data. The same
     0.3 um of bar noise in both (noise-free traces would let REML ask for an interpolant); what is
     left is the bar's second order (the motion's tangential part squared over 2R, tens of nm) and the
-    search's tolerance: within 0.02 um over the working zone."""
+    search's tolerance: within 0.03 um over the working zone."""
     plain = fitted(traces(bowed, noise=0.0003))
     moved = fitted(traces(bowed, rigid=(tx, tz, rotation), noise=0.0003))
     x, z = (g.ravel() for g in np.meshgrid(np.linspace(-90, 90, 7), np.linspace(-90, 90, 7)))
-    assert np.ravel(moved.field.errors(x, z)) == pytest.approx(np.ravel(plain.field.errors(x, z)), abs=2e-5)
+    assert np.ravel(moved.field.errors(x, z)) == pytest.approx(np.ravel(plain.field.errors(x, z)), abs=3e-5)
 
 
 def test_with_two_centres_one_bending_of_the_map_is_invisible_too():
