@@ -307,7 +307,7 @@ def test_a_surface_file_reads_back_and_refuses_a_negative_radius(tmp_path):
 
 def test_the_sample_machine_loads_and_unknown_keys_are_refused_naming_the_file(tmp_path):
     sim, profile = load(MACHINE)
-    assert sim.x.scaling == 3e-5 and sim.probe.datum_z_mm == 10.0 and profile.name == "okuma-howa-v40r-virtual"
+    assert sim.x.scaling == 8e-5 and sim.probe.datum_z_mm == 10.0 and profile.name == "okuma-howa-v40r-virtual"
     assert sim.x.straightness_span_mm == profile.x_limits
     for text, message in (("[simulation.x]\nscalling = 1e-5\n", "unknown key 'simulation.x.scalling'"),
                           ("[simulation]\nwobble = 1\n", "unknown key 'simulation.wobble'"),
