@@ -17,7 +17,7 @@ deviation: along the normal out of the material, positive = material left. Noise
 :func:`.config.generator`: the same seed gives the same files.
 """
 
-from .ballbar import BallbarRun, ballbar_test
+from .ballbar import BallbarRun, ballbar_test, program_test
 from .calibrate import CalibrationRun, calibrate
 from .cmm import Inspection, inspect
 from .config import Simulation, generator, load
@@ -29,4 +29,4 @@ from .surface import Turned
 
 __all__ = ["BallbarRun", "CalibrationRun", "Inspection", "Machine", "Nominal", "ProbeRun", "Simulation", "Turned",
            "ballbar_test", "calibrate", "cut", "generator", "inspect", "load", "nominal", "probe_profile",
-           "read_program"]
+           "program_test", "read_program"]

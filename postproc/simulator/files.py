@@ -43,10 +43,13 @@ def _header(magic: str, keys: dict[str, object], provenance: dict[str, object]) 
     return lines
 
 
-def trace_text(run: BallbarRun, provenance: dict[str, object]) -> str:
+def trace_text(run: BallbarRun, provenance: dict[str, object], centered: bool = False) -> str:
+    """A trace file; ``centered`` marks it so (the bar not re-mounted since the trace whose centre counts)."""
     keys: dict[str, object] = {"radius_mm": f"{run.radius:.10g}", "direction": run.direction,
                                "center_x_mm": f"{run.centre[0]:.10g}", "center_z_mm": f"{run.centre[1]:.10g}",
                                "feed_mm_min": f"{run.feed:.10g}"}
+    if centered:
+        keys["centered"] = "true"
     if run.raw:
         keys |= {"start_angle_deg": f"{run.start_angle:.10g}", "capture_arc_deg": f"{run.capture:.10g}"}
         rows = ["deviation_mm"] + [_number(value) for value in run.deviations]
