@@ -145,3 +145,11 @@ def test_the_program_settles_what_it_runs_and_a_circle_it_does_not_run_is_refuse
     lines.write_text("%\nO0001\nG18 G21 G40 G98\nG00 X200. Z5.\nG01 Z0. F1000.\nG01 X141.421 Z-70.711\nM30\n%\n")
     unknown = cli("simulate", "ballbar", "--program", lines, code=3)
     assert "the program has no feed arc; give --center-x and --center-z" in unknown.stderr
+
+
+def test_the_same_machine_cuts_the_uncompensated_hemishell_as_the_sources_simulation():
+    """Table 6.7: the source's simulated hemishell, uncompensated, sigma 4.0 um (docs/methods.md §8.1):
+    with the ballbar's figures above, both hold on the one sample machine."""
+    cut = json.loads(cli("simulate", "inspect", str(SAMPLES / "programs" / "hemishell.nc"), "--machine", MACHINE,
+                         "--from-line", 10, "--to-line", 10, "--json").stdout)
+    assert cut["std_um"] == pytest.approx(4.0, abs=0.3)
