@@ -18,7 +18,7 @@ deviation: along the normal out of the material, positive = material left. Noise
 """
 
 from .ballbar import BallbarRun, ballbar_test, program_test
-from .calibrate import CalibrationRun, calibrate
+from .calibrate import CalibrationRun, artifact_round, calibrate
 from .cmm import Inspection, inspect
 from .config import Simulation, generator, load
 from .cut import cut
@@ -28,5 +28,5 @@ from .probe import ProbeRun, probe_profile
 from .surface import Turned
 
 __all__ = ["BallbarRun", "CalibrationRun", "Inspection", "Machine", "Nominal", "ProbeRun", "Simulation", "Turned",
-           "ballbar_test", "calibrate", "cut", "generator", "inspect", "load", "nominal", "probe_profile",
+           "artifact_round", "ballbar_test", "calibrate", "cut", "generator", "inspect", "load", "nominal", "probe_profile",
            "program_test", "read_program"]
