@@ -283,3 +283,12 @@ def test_full_circle_with_i_k():
 def test_full_circle_without_end_point():
     arc = moves(START + "G01 X20. Z0.\nG03 I0. K5.\n")[-1]
     assert geometry(arc)[2:6] == ((10.0, 0.0), (10.0, 0.0), (10.0, 5.0), "ccw")
+
+
+def test_the_plain_number_warning_names_the_literal_when_the_address_is_also_an_expression():
+    """Z-#1 Z1: the warning about the plain Z1 quotes Z1, not the expression given first (which made
+    an internal error of it)."""
+    reporter = Reporter()
+    moves(START + "Z-#1 Z1\n", reporter=reporter)
+    warned = [w for w in reporter.warnings if "has no decimal point" in w.message]
+    assert len(warned) == 1 and warned[0].message.startswith("Z1 has no decimal point")
