@@ -15,11 +15,10 @@ import click
 
 from ..artifact_cycle import NAME, plan_round
 from ..diagnostics import Location, OptionError, Reporter
-from ..output import STDOUT, write_atomically
+from ..output import write_atomically
 from ..probe_cycle import Cycle, code_digits, self_check
 from ..profile import DEFAULT, load
-
-DEFAULTS = Cycle()
+from .probe_program import DEFAULTS, program_options
 
 
 @click.command("artifact-program")
@@ -35,12 +34,7 @@ DEFAULTS = Cycle()
 @click.option("--feed", type=float, default=DEFAULTS.feed, show_default=True, metavar="MM/MIN",
               help="Probing feed of the skip moves (the calibration's).")
 @click.option("--travel-feed", type=float, default=DEFAULTS.travel_feed, show_default=True, metavar="MM/MIN")
-@click.option("--tool", metavar="TNNNN", help="Select the probe with this T code (e.g. T0909).")
-@click.option("--probe-on", metavar="MNN", help="M code that switches the probe on.")
-@click.option("--probe-off", metavar="MNN", help="M code that switches the probe off.")
-@click.option("--program-number", type=int, default=DEFAULTS.program_number, show_default=True, metavar="N")
-@click.option("--machine", metavar="FILE", help="A machine profile (TOML): G-code system, diameter mode, limits.")
-@click.option("-o", "--output", "output", default=STDOUT, metavar="FILE", help="Write the program here.")
+@program_options
 def command(center_x, center_z, artifact_radius, stylus_radius, clearance, overtravel, feed, travel_feed, tool,
             probe_on, probe_off, program_number, machine, output):
     """Write a FANUC probing program for one round of finding the calibration sphere's centre."""
