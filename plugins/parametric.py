@@ -108,14 +108,14 @@ class Parametric(ErrorFunctions):
     the box's edge, with a warning naming the first block that goes there, unless
     ``--option extrapolate=true``.
 
-    Example: the sample V40R test (``samples/ballbar/v40r-100-*.csv``: +30/-20 ppm scaling,
+    Example: the sample V40R test (``samples/ballbar/v40r-100-*.csv``: +80/-100 ppm scaling,
     4/3 um backlash) on the hemishell; X reverses at the pole, so the arc starts b_x/2 out::
 
-        G01 Z57.15 F0.08                becomes   G01 X-0.001 Z62. F0.08
-        G03 X114.3 Z0. I0. K-57.15                X0. Z57.15
-        G01 X118.                                 G01 X0.004 Z57.15
-                                                  G03 X114.3 Z-0.001 I-0.003 K-57.151
-                                                  G01 X118. Z-0.001
+        G01 Z57.15 F0.08                becomes   G01 X-0.001 Z62.005 F0.08
+        G03 X114.3 Z0. I0. K-57.15                X0. Z57.154
+        G01 X118.                                 G01 X0.004 Z57.154
+                                                  G03 X114.294 Z-0.001 I-0.005 K-57.15
+                                                  G01 X117.994 Z-0.001
     """
 
     name = "parametric"

@@ -307,7 +307,7 @@ def fit(samples: Samples, unit_errors: Mapping[str, tuple[np.ndarray, np.ndarray
     """Least squares of the model and the set-up centres; Inseparable when no solution is unique.
 
     The fit is made twice. The first gives the set-up centres, whose second-order share of the
-    bar length (:func:`_second_order`) is taken off the readings for the second. With backlash
+    bar length (:func:`second_order`) is taken off the readings for the second. With backlash
     in the model (``backlash_x``, ``backlash_z``) the samples where an axis is taking up its play
     after a reversal (:func:`take_up`, from the first fit's backlash) are left out of the second:
     the model's step is, on the machine, a ramp while the slide stands still until its motor
@@ -322,7 +322,7 @@ def fit(samples: Samples, unit_errors: Mapping[str, tuple[np.ndarray, np.ndarray
         raise MeasurementError(f"{count} samples cannot fit {size} parameters ({arcs_text(samples.traces)})", where)
     used = np.ones(count, dtype=bool)
     solution, inverse, singular = _solve(matrix, samples.measured, used, every, names, samples.traces)
-    measured = samples.measured - _second_order(samples, solution[len(names):])
+    measured = samples.measured - second_order(samples, solution[len(names):])
     play = {axis: abs(float(solution[names.index(f"backlash_{axis}")])) for axis in "xz" if f"backlash_{axis}" in names}
     if play:
         used = ~take_up(samples, play.get("x", 0.0), play.get("z", 0.0))
@@ -350,12 +350,12 @@ def without_centres(samples: Samples, values: np.ndarray, radius: bool = False) 
         constants = np.column_stack([samples.mount == mount for mount in range(len(samples.groups))]).astype(float)
         harmonics = np.column_stack([harmonics, constants])
     centres, *_ = np.linalg.lstsq(harmonics, values, rcond=None)
-    values = values - _second_order(samples, centres[: 2 * len(samples.groups)])
+    values = values - second_order(samples, centres[: 2 * len(samples.groups)])
     centres, *_ = np.linalg.lstsq(harmonics, values, rcond=None)
     return values - harmonics @ centres
 
 
-def _second_order(samples: Samples, centres: np.ndarray) -> np.ndarray:
+def second_order(samples: Samples, centres: np.ndarray) -> np.ndarray:
     """The set-up centres' reading beyond their first harmonic (:func:`setup_reading`)."""
     cx, cz = centres[0::2][samples.mount], centres[1::2][samples.mount]
     return setup_reading(samples.cos, samples.sin, samples.radius, cx, cz) - cx * samples.cos - cz * samples.sin

@@ -87,6 +87,8 @@ class _Commands(click.Group):
     does not pay for numpy, scipy or matplotlib."""
 
     modules = {
+        "artifact-find": "postproc.commands.artifact_find",
+        "artifact-program": "postproc.commands.artifact_program",
         "ballbar": "postproc.commands.ballbar",
         "budget": "postproc.commands.budget",
         "import-trace": "postproc.commands.import_trace",

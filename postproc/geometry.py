@@ -200,16 +200,30 @@ class Arc:
         return np.hypot(p[:, 0] - self.xc, p[:, 1] - self.zc) - self.r
 
     def reversal_params(self) -> list[float]:
-        """Parameters strictly inside the arc where an axis reverses (theta a multiple of 90 deg)."""
+        """Parameters strictly inside the arc where an axis reverses: theta a multiple of 90 deg on a
+        circle; on a spiral (``r1``) that angle plus ``atan(dr / (r(t) sweep))``, where the drift of
+        the radius cancels the turn (``d(r cos theta)/dt = 0``, likewise for z). An I/K arc whose
+        radius drifts by a micrometre over a short sweep has its apex tens of micrometres from the
+        quadrant point: where the control reverses the axis, and the R form of the same arc does."""
         span = abs(self.sweep)
+        if span == 0.0:
+            return []
         sign = 1.0 if self.sweep >= 0 else -1.0
+        drift = 0.0 if self.r1 is None else self.r1 - self.r
         found = []
         for k in range(-8, 9):
             theta = k * math.pi / 2
             along = (sign * (theta - self.theta0)) % TAU
+            for _ in range(3 if drift else 0):  # the offset depends on r(t): a fixed point, settled in three
+                r = self.r + min(max(along / span, 0.0), 1.0) * drift
+                along = (sign * (theta + math.atan(drift / (r * self.sweep)) - self.theta0)) % TAU
             if 1e-9 < along < span - 1e-9:
                 found.append(along / span)
-        return sorted(set(round(t, 12) for t in found))
+        distinct: list[float] = []  # k and k + 4 name one angle, wrapped to parameters a rounding apart
+        for t in sorted(found):
+            if not distinct or t - distinct[-1] > 1e-9:
+                distinct.append(round(t, 12))
+        return distinct
 
     def reversed(self) -> "Arc":
         return Arc(self.xc, self.zc, self.end_radius, self.theta1, -self.sweep, None if self.r1 is None else self.r)

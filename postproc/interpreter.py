@@ -395,7 +395,9 @@ class Interpreter:
             return
         self._units_said = True
         block, letter, inch = self._plain
-        word = block.word(letter)
+        # the plain literal itself: the block may give the same address again as an expression (Z-#1 Z1)
+        word = next((w for w in block.words if w.letter == letter and type(w.value) is str and "." not in w.value),
+                    block.word(letter))
         increment = self.profile.increment(inch)
         unit = "in" if inch else "mm"
         as_written = float(word.value)

@@ -9,8 +9,10 @@ cycle's own call (its roughing passes are not simulated). Rapids and threads are
 they matter for lost motion, but make no surface.
 
 The profile is, by default, the first continuous chain of feed moves (G01/G02/G03) without
-the moves at its ends that run along the spindle axis (x = 0 at both ends: they turn no
-surface). ``first_line``/``last_line`` keep only moves whose source line lies in that range
+the moves at its ends that run along the spindle axis (both ends within ``ON_AXIS_MM`` of x = 0:
+they turn no surface). A compensated program's lead-in to the pole ends a few micrometres off
+the axis, on either side of it (the path moved on purpose), and is still such a move.
+``first_line``/``last_line`` keep only moves whose source line lies in that range
 (the first continuous chain of those): use them to leave out lead-in and lead-out moves
 that would cut air on the real part but cut the virtual one.
 
@@ -36,7 +38,7 @@ from .program import interpret_source
 from .source import Source
 
 MATERIAL = ("axis", "left", "right")
-_ON_AXIS = 1e-9  #: mm: a coordinate this close to 0 is on the spindle axis
+ON_AXIS_MM = 0.01  #: a coordinate this close to 0 is on the spindle axis (compensation moves it by microns)
 
 
 def read_program(path: str, profile: MachineProfile = DEFAULT, reporter: Reporter | None = None) -> tuple[str, list[Move]]:
@@ -60,7 +62,7 @@ def program_moves(path: str, profile: MachineProfile = DEFAULT,
 
 
 def on_axis(move: Move) -> bool:
-    return move.kind == LINE and abs(move.x0) < _ON_AXIS and abs(move.x1) < _ON_AXIS
+    return move.kind == LINE and abs(move.x0) < ON_AXIS_MM and abs(move.x1) < ON_AXIS_MM
 
 
 def _cuts(move: Move) -> bool:

@@ -148,6 +148,7 @@ class ProbingProgram:
     features: tuple[Feature, ...] = ()  #: the profile's lines and arcs
     spread: Spread | None = None  #: how many touches each feature got, and the room kept at its ends
     text: str = ""
+    title: str = ""  #: what the program probes, for its heading (default: the profile's lines and points)
 
     @property
     def points(self) -> tuple[Touch, ...]:
@@ -256,7 +257,7 @@ class _Planner:
         first, last = self.nominal.moves[0].line, self.nominal.moves[-1].line
         planned = ProbingProgram(self.program, cycle, tuple(touches), envelope.corner, leave, (first, last),
                                  self.nominal.features, spread)
-        self._within_limits(planned)
+        within_limits(planned, self.profile)
         return planned
 
     def _datums(self) -> list[tuple[tuple[float, float], tuple[float, float]]]:
@@ -298,20 +299,21 @@ class _Planner:
             legs = legs[:-1]  # the envelope's path already ends at the corner, at rapid
         return legs
 
-    def _within_limits(self, planned: ProbingProgram) -> None:
-        limits = {"x": self.profile.x_limits, "z": self.profile.z_limits}
-        if limits["x"] is None and limits["z"] is None:
-            return
-        places = [planned.home] + [(leg.x, leg.z) for leg in planned.leave]
-        for touch in planned.touches:
-            places += [(leg.x, leg.z) for leg in touch.route] + [touch.start, touch.end]
-        for x, z in places:
-            for axis, value in (("x", x), ("z", z)):
-                span = limits[axis]
-                if span is not None and not span[0] - 1e-9 <= value <= span[1] + 1e-9:
-                    raise SafetyError(f"the probing program would move {axis} to {value:.3f} mm, outside the soft "
-                                      f"limits {span[0]:g}..{span[1]:g} of the machine profile",
-                                      Location(self.program))
+
+def within_limits(planned: ProbingProgram, profile: MachineProfile) -> None:
+    """:raises SafetyError: a position of the program outside the machine profile's soft limits."""
+    limits = {"x": profile.x_limits, "z": profile.z_limits}
+    if limits["x"] is None and limits["z"] is None:
+        return
+    places = [planned.home] + [(leg.x, leg.z) for leg in planned.leave]
+    for touch in planned.touches:
+        places += [(leg.x, leg.z) for leg in touch.route] + [touch.start, touch.end]
+    for x, z in places:
+        for axis, value in (("x", x), ("z", z)):
+            span = limits[axis]
+            if span is not None and not span[0] - 1e-9 <= value <= span[1] + 1e-9:
+                raise SafetyError(f"the probing program would move {axis} to {value:.3f} mm, outside the soft "
+                                  f"limits {span[0]:g}..{span[1]:g} of the machine profile", Location(planned.program))
 
 
 def plan(moves: list[Move], nominal: Nominal, cycle: Cycle, profile: MachineProfile = DEFAULT) -> ProbingProgram:
@@ -374,8 +376,8 @@ def program_text(planned: ProbingProgram, profile: MachineProfile = DEFAULT) -> 
     name = os.path.basename(planned.program)
     first, last = planned.lines
     text.add("%", f"O{cycle.program_number:04d} " + _comment(f"POSTPROC PROBING {name}"),
-             _comment(f"PROFILE LINES {first}-{last}, {len(planned.points)} POINTS, STYLUS R{cycle.stylus_radius:g} "
-                      f"MM, CLEARANCE {cycle.clearance:g} MM"),
+             _comment((planned.title or f"PROFILE LINES {first}-{last}, {len(planned.points)} POINTS")
+                      + f", STYLUS R{cycle.stylus_radius:g} MM, CLEARANCE {cycle.clearance:g} MM"),
              _comment(f"PRINTOUT FORMAT {VERSION}: READ IT WITH POSTPROC PROBE-IMPORT"),
              _comment("THE PROBE OFFSET MUST PUT THE PROGRAMMED POINT AT THE STYLUS CENTRE"),
              _comment("START WITH THE PROBE CLEAR OF THE PART, AS AFTER A TOOL CHANGE"),

@@ -121,7 +121,7 @@ def _turns(arc: Arc, steps: tuple[float, float]) -> list[float]:
         return found
     length = arc.length
     shortest = max(steps) / length if length > 0.0 else math.inf
-    theta0, sweep, r = arc.theta0, arc.sweep, arc.r
+    theta0, sweep = arc.theta0, arc.sweep
     kept: list[float] = []
     previous = 0.0
     for index, t in enumerate(found):
@@ -130,9 +130,13 @@ def _turns(arc: Arc, steps: tuple[float, float]) -> list[float]:
         same = [u for u in found if u != t and (abs(math.sin(theta0 + u * sweep)) < 0.5) == (axis == 0)]
         before = max([u for u in same if u < t], default=0.0)
         after = min([u for u in same if u > t], default=1.0)
-        value = (math.cos, math.sin)[axis]
-        here = value(theta)
-        travel = min(abs(here - value(theta0 + before * sweep)), abs(value(theta0 + after * sweep) - here)) * r
+        cosine_or_sine = (math.cos, math.sin)[axis]
+
+        def value(u: float) -> float:  # the axis about the centre at parameter u, the radius drifting on a spiral
+            return cosine_or_sine(theta0 + u * sweep) * float(arc.radius_at(u))
+
+        here = value(t)
+        travel = min(abs(here - value(before)), abs(value(after) - here))
         following = found[index + 1] if index + 1 < len(found) else 1.0
         if travel >= steps[axis] / 2.0 and t - previous >= shortest and following - t >= shortest:
             kept.append(t)

@@ -25,7 +25,7 @@ README = """# Sample measurements
 
 Made by `samples/make_samples.py` (run it with the project's Python to regenerate them: the
 output is the same byte for byte) on the virtual lathe of `postproc simulate`, configured by
-the `[simulation]` table of `machines/v40r-sim.toml`: a V40R-like machine with +30/-20 ppm
+the `[simulation]` table of `machines/v40r-sim.toml`: a V40R-like machine with +80/-100 ppm
 scaling, 4/3 um backlash, a 0.3/0.2 um ballscrew-pitch term, 0.4 um/100 mm squareness, a
 30 us X-behind-Z servo mismatch, a tool set 8 um off in X and 4 um in Z, cutting deflection
 of 2-3 um, a tool 0.25 mm off centre height (a 20 um nub at the pole), a probe with 6 um

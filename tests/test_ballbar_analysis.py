@@ -345,8 +345,8 @@ def test_220_deg_traces_are_diagnosed_not_an_internal_error(tmp_path, form):
     report = json.loads(result.stdout)
     assert report["captured_arc_deg"]["ccw"]["span"] == pytest.approx(220.0, abs=0.6)
     assert report["hysteresis_mm"] > 0 and report["bidirectional_circular_deviation_mm"] > 0
-    assert report["scaling_x"] == pytest.approx(30e-6, abs=4e-6)  # the sample machine: +30 / -20 ppm, 4 / 3 um
-    assert report["scaling_z"] == pytest.approx(-20e-6, abs=4e-6)
+    assert report["scaling_x"] == pytest.approx(80e-6, abs=4e-6)  # the sample machine: +80 / -100 ppm, 4 / 3 um
+    assert report["scaling_z"] == pytest.approx(-100e-6, abs=4e-6)
     assert report["backlash_x_mm"] == pytest.approx(0.004, abs=0.0006)
     assert report["backlash_z_mm"] == pytest.approx(0.003, abs=0.0006)
     assert any("ISO 13041-6" in note for note in report["notes"])
@@ -444,7 +444,7 @@ def test_a_radius_that_is_not_the_bars_is_named(tmp_path, run):
     result = run("compensate", HEMISHELL, "--plugin", "parametric", *(a for p in paths for a in ("--ballbar", p)))
     assert result.exit_code == 3 and result.stdout == ""
     assert "beyond 500 ppm" in result.stderr and "is radius_mm (4 mm) the bar's length" in result.stderr
-    assert "warning: scaling X +7" in invoke(*paths).stderr
+    assert "warning: scaling X +1979 ppm and scaling Z -2519 ppm are beyond 500 ppm" in invoke(*paths).stderr
 
 
 def test_a_mean_radius_error_is_named_as_the_wrong_radius(tmp_path):

@@ -136,7 +136,7 @@ def test_compensate_refuses_a_mixed_program_until_the_profile_says_how_the_contr
     first = result.stderr.splitlines()[0]
     assert first.startswith("<stdin>:7:4: error: X118 has no decimal point")
     assert first.endswith("state which in the machine profile, calculator_input = true or false")
-    for stated, words in (("true", ("X118.Z0.249", "X103.993 Z-50.002")), ("false", ("X0.114Z0.249", "X0.1 Z-50.002"))):
+    for stated, words in (("true", ("X117.994Z0.249", "X103.987 Z-50.006")), ("false", ("X0.114Z0.249", "X0.1 Z-50.006"))):
         machine = tmp_path / f"{stated}.toml"
         machine.write_text(f"calculator_input = {stated}\n")
         result = run("compensate", "--model", model, "--machine", str(machine), input=MIXED)

@@ -149,7 +149,9 @@ def test_omp_feedback_at_least_halves_the_mean_and_the_spread_of_a_cut_part(tmp_
     print(f"omp-feedback: mean {before[0]:+.2f} -> {after[0]:+.2f} um, sigma {before[1]:.2f} -> {after[1]:.2f} um")
     assert before[0] > 10.0 and before[1] > 3.0  # the error is there to be taken out
     assert abs(after[0]) <= abs(before[0]) / 2 and after[1] <= before[1] / 2
-    assert abs(after[0]) < 1.5 and after[1] < 1.5  # the source: -0.1 / 1.4 um
+    # by the CMM, as the source measured its part after compensation (Table 7.11): 1.5 / 3.1 um; what the
+    # on-machine probe cannot see (the machine's errors, read through its own axes) stays
+    assert abs(after[0]) < 2.5 and after[1] < 1.5
 
 
 def test_omp_feedback_reports_both_figures_and_the_dropped_nub(tmp_path):
@@ -161,8 +163,10 @@ def test_omp_feedback_reports_both_figures_and_the_dropped_nub(tmp_path):
     chain = report["chains"][0]
     assert chain["moves"] == "lines 9-11" and chain["points"] == 36
     assert [(d["row"], d["kind"]) for d in chain["dropped"]] == [(13, "nub")]
-    assert chain["measured_error_um"]["std_um"] > chain["cleaned_error_um"]["std_um"]
-    assert chain["cleaned_error_um"]["mean_um"] == pytest.approx(11.5, abs=1.0)
+    nub = chain["dropped"][0]
+    assert nub["deviation_mm"] - nub["replacement_mm"] > 0.015  # the nub stands 19 um above its neighbours' trend
+    assert chain["measured_error_um"]["mean_um"] > chain["cleaned_error_um"]["mean_um"]
+    assert chain["cleaned_error_um"]["mean_um"] == pytest.approx(12.1, abs=1.0)
     # the stretch runs from the pole to the equator: the whole arc and neither line
     assert chain["stretch_mm"] == pytest.approx([4.85, 4.85 + np.pi / 2 * R], abs=1e-6)
     assert any("datum x stable" in note for note in report["notes"])
@@ -218,7 +222,7 @@ def test_omp_feedback_refuses_thin_evidence_naming_the_feature_and_its_rows(keep
 
 
 def test_omp_feedback_screens_the_nub_out_of_three_touches(tmp_path):
-    """The nub (27.7 um high) and two touches beside it: the nub is dropped, no dip is cut at the pole."""
+    """The nub (26.4 um high) and two touches beside it: the nub is dropped, no dip is cut at the pole."""
     probe, calibration = sample_rows(tmp_path, [1, 2, 3])
     pipeline = Pipeline(plugins=["omp-feedback"], probe=[probe], calibration=calibration)
     text = pipeline.compensate_text(Path(HEMISHELL).read_text())

@@ -349,7 +349,7 @@ def test_the_reader_example_in_hooks_md_reads_its_export(tmp_path, run):
 
         report = json.loads(result.stdout)
         assert abs(report["captured_arc_deg"]["cw"]["span"] - 220.0) < 0.6
-        assert abs(report["scaling_x"] - 30e-6) < 4e-6 and abs(report["backlash_z_mm"] - 0.003) < 0.0006
+        assert abs(report["scaling_x"] - 80e-6) < 4e-6 and abs(report["backlash_z_mm"] - 0.003) < 0.0006
         fitted = run("fit", "--plugin", "parametric", *(a for e in exports for a in ("--ballbar", e)),
                      "-o", str(tmp_path / "model.json"))
         assert fitted.exit_code == 0, fitted.stderr

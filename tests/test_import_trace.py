@@ -163,7 +163,7 @@ def test_imported_220_deg_exports_are_diagnosed(run, tmp_path):
         paths.append(target)
     report = run("ballbar", *paths)
     assert report.exit_code == 0, report.stderr
-    assert "scaling X                     +29." in report.stdout or "scaling X                     +30." in report.stdout
+    assert "scaling X                     +79." in report.stdout or "scaling X                     +80." in report.stdout
 
 
 EXPORTS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

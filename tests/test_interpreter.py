@@ -307,3 +307,12 @@ def test_a_rotary_move_alone_leaves_x_and_z_where_they_are():
     result = steps(START + "G01 C90.\nG01 Z0.\n", reporter, axes="XZC")
     assert reporter.warnings == [] and result[2].moves == ()
     assert (result[3].moves[0].x0, result[3].moves[0].z0) == (50.0, 10.0)
+
+
+def test_the_plain_number_warning_names_the_literal_when_the_address_is_also_an_expression():
+    """Z-#1 Z1: the warning about the plain Z1 quotes Z1, not the expression given first (which made
+    an internal error of it)."""
+    reporter = Reporter()
+    moves(START + "Z-#1 Z1\n", reporter=reporter)
+    warned = [w for w in reporter.warnings if "has no decimal point" in w.message]
+    assert len(warned) == 1 and warned[0].message.startswith("Z1 has no decimal point")

@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import json
 import math
+import tempfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from postproc.cli import main
 from postproc.diagnostics import EXIT_BAD_INPUT, MeasurementError, OptionError
@@ -175,6 +178,21 @@ def test_the_pitch_term_and_straightness_follow_their_equations():
     assert np.abs(deviations - bow * np.cos(theta)).max() < 1e-7
 
 
+def test_general_error_terms_add_their_polynomials_about_the_reference():
+    """A bowed Z slide (an X error growing with z squared), a Z error growing with x squared and
+    an x-times-z term, about a reference off the origin: each where the ballbar reads it."""
+    terms = [{"axis": "x", "value_mm": 4e-3, "z_power": 2}, {"axis": "z", "value_mm": 3e-3, "x_power": 2},
+             {"axis": "z", "value_mm": -1e-3, "x_power": 1, "z_power": 1, "length_mm": 50.0}]
+    table = {"reference_x_mm": 10.0, "reference_z_mm": -20.0, "term": terms}
+    theta, deviations = _signature(table, "ccw")
+    u, w = 100.0 * np.cos(theta) - 10.0, 100.0 * np.sin(theta) + 20.0
+    ex = 4e-3 * (w / 100.0) ** 2
+    ez = 3e-3 * (u / 100.0) ** 2 - 1e-3 * (u / 50.0) * (w / 50.0)
+    bar = np.hypot(100.0 * np.cos(theta) + ex, 100.0 * np.sin(theta) + ez) - 100.0  # um-sized: exact, not first order
+    assert np.abs(deviations - bar).max() < 1e-9
+    assert [term.axis for term in from_table(table).term] == ["x", "z", "z"]
+
+
 def test_lost_motion_is_the_play_operator():
     command_ = np.array([0.0, 1.0, 2.0, 1.999, 1.0, 1.0, 3.0])
     slide = play(command_, 0.004)
@@ -289,17 +307,64 @@ def test_a_surface_file_reads_back_and_refuses_a_negative_radius(tmp_path):
 
 def test_the_sample_machine_loads_and_unknown_keys_are_refused_naming_the_file(tmp_path):
     sim, profile = load(MACHINE)
-    assert sim.x.scaling == 3e-5 and sim.probe.datum_z_mm == 10.0 and profile.name == "okuma-howa-v40r-virtual"
+    assert sim.x.scaling == 8e-5 and sim.probe.datum_z_mm == 10.0 and profile.name == "okuma-howa-v40r-virtual"
     assert sim.x.straightness_span_mm == profile.x_limits
     for text, message in (("[simulation.x]\nscalling = 1e-5\n", "unknown key 'simulation.x.scalling'"),
                           ("[simulation]\nwobble = 1\n", "unknown key 'simulation.wobble'"),
                           ("[simulation.z]\nbacklash_mm = -0.1\n", "'simulation.z.backlash_mm' cannot be negative"),
                           ("[simulation.ballbar]\noversample = 1.5\n", "'simulation.ballbar.oversample' must be a whole"),
-                          ("[simulation]\nx = 3\n", "'simulation.x' must be a table")):
+                          ("[simulation]\nx = 3\n", "'simulation.x' must be a table"),
+                          ("[simulation]\nterm = 3\n", "'simulation.term' must be an array of tables"),
+                          ("[[simulation.term]]\naxis = \"y\"\nvalue_mm = 1\n", r"'simulation\.term\[1\]\.axis' must be \"x\" or \"z\""),
+                          ("[[simulation.term]]\naxis = \"x\"\n", r"'simulation\.term\[1\]' needs 'value_mm'"),
+                          ("[[simulation.term]]\naxis = \"x\"\nvalue_mm = 1\nz_power = 7\n",
+                           r"'simulation\.term\[1\]\.z_power' must be a whole number from 0 to 6")):
         path = write(tmp_path, "m.toml", text)
         with pytest.raises(OptionError, match=message) as caught:
             load(path)
         assert str(caught.value).startswith(f"{path}: error: ")
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.floats(-0.008, 0.008), st.floats(-0.008, 0.008))
+def test_a_profile_that_starts_at_or_just_past_the_spindle_axis_is_cut_and_inspected(dx, dz):
+    """A compensated hemishell: the arc's centre moved by (dx, dz) (a centre-offset compensation), the
+    lead-in along the spindle axis meeting the arc's start a few micrometres on either side of the
+    axis. The lead-in turns no surface (it is left out of the profile), the arc is cut from where it
+    crosses the axis, and the CMM measures every point, the pole included: against the compensated
+    program's own profile zero, against the hemishell the shift along each normal."""
+    runner = CliRunner()
+    x0, z0 = 2.0 * dx, R + dz
+    text = (f"%\nO0001\nG18 G21 G40 G99\nG00 X0. Z62.\nG01 X{x0:.4f} Z{z0:.4f} F0.08\n"
+            f"G03 X{2.0 * (R + dx):.4f} Z{dz:.4f} I0. K{-R:.4f}\nG00 X120. Z62.\nM30\n%\n")
+    with tempfile.TemporaryDirectory() as folder:
+        program, surface = str(Path(folder) / "shifted.nc"), str(Path(folder) / "surface.csv")
+        Path(program).write_text(text)
+        own = runner.invoke(main, ["simulate", "inspect", program, "--json"])
+        assert own.exit_code == 0, own.stderr
+        assert np.abs([p["deviation_mm"] for p in json.loads(own.stdout)["points"]]).max() < 1e-5
+        cut_ = runner.invoke(main, ["simulate", "cut", program, "-o", surface])
+        assert cut_.exit_code == 0, cut_.stderr
+        against = runner.invoke(main, ["simulate", "inspect", HEMISHELL, "--from-line", "10", "--to-line", "10",
+                                       "--surface", surface, "--json"])
+        assert against.exit_code == 0, against.stderr
+    points = json.loads(against.stdout)["points"]
+    theta = np.arctan2([p["z_mm"] for p in points], [p["x_mm"] for p in points])
+    shift = float(f"{x0:.4f}") / 2.0 * np.cos(theta) + float(f"{dz:.4f}") * np.sin(theta)
+    assert np.array([p["deviation_mm"] for p in points]) == pytest.approx(shift, abs=2e-5)
+
+
+def test_a_profile_entered_at_rapid_starts_where_the_lagging_axes_reach_it(tmp_path):
+    """Servo lags of 1.2 and 1.05 ms: as the profile's first feed move starts, the axes still run the
+    rapid that brought the tool there (0.2 mm of it at 10 m/min). That is no surface of the profile:
+    the CMM's first point, at the very start, measures the profile as well as the others."""
+    program = write(tmp_path, "shaft.nc", "%\nO0001\nG18 G21 G40 G99\nG00 X83.7 Z3.\nG00 X25.9 Z0.\n"
+                                          "G01 X28.2 Z-1.15 F0.1\nG01 Z-10.35\nG01 X40.\nG00 X80. Z5.\nM30\n%\n")
+    machine = write(tmp_path, "lag.toml", "[simulation.x]\nlag_s = 0.0012\n[simulation.z]\nlag_s = 0.00105\n")
+    result = CliRunner().invoke(main, ["simulate", "inspect", program, "--machine", machine, "--json"])
+    assert result.exit_code == 0, result.stderr
+    deviations = [point["deviation_mm"] for point in json.loads(result.stdout)["points"]]
+    assert np.abs(deviations).max() < 0.001
 
 
 def test_a_probe_that_would_hit_another_part_of_the_profile_is_an_error():

@@ -26,6 +26,22 @@ from ..profile import DEFAULT, load
 from .common import FINITE, guard
 
 DEFAULTS = Cycle()
+_PROGRAM_OPTIONS = (
+    click.option("--tool", metavar="TNNNN", help="Select the probe with this T code (e.g. T0909)."),
+    click.option("--probe-on", metavar="MNN", help="M code that switches the probe on."),
+    click.option("--probe-off", metavar="MNN", help="M code that switches the probe off."),
+    click.option("--program-number", type=int, default=DEFAULTS.program_number, show_default=True, metavar="N"),
+    click.option("--machine", metavar="FILE", help="A machine profile (TOML): G-code system, diameter mode, limits."),
+    click.option("-o", "--output", "output", default=STDOUT, metavar="FILE", help="Write the program here."),
+)
+
+
+def program_options(command):
+    """The options of every probing program: the probe's T and M codes, the program number, the
+    machine, where the program goes (``--tool --probe-on --probe-off --program-number --machine -o``)."""
+    for option in reversed(_PROGRAM_OPTIONS):
+        command = option(command)
+    return command
 
 
 @click.command("probe-program")
@@ -56,12 +72,7 @@ DEFAULTS = Cycle()
 @click.option("--datum-z", type=FINITE, metavar="MM", help="Datum point z, with --datum-x.")
 @click.option("--datum-on", type=click.Choice(DATUM_SURFACES), default="face", show_default=True,
               help="The datum point lies on a face (touched from +Z), a diameter (from +X), or both (a corner).")
-@click.option("--tool", metavar="TNNNN", help="Select the probe with this T code (e.g. T0909).")
-@click.option("--probe-on", metavar="MNN", help="M code that switches the probe on.")
-@click.option("--probe-off", metavar="MNN", help="M code that switches the probe off.")
-@click.option("--program-number", type=int, default=DEFAULTS.program_number, show_default=True, metavar="N")
-@click.option("--machine", metavar="FILE", help="A machine profile (TOML): G-code system, diameter mode, limits.")
-@click.option("-o", "--output", "output", default=STDOUT, metavar="FILE", help="Write the program here.")
+@program_options
 def command(program, points, per_feature, from_line, to_line, material, inset, stylus_radius, clearance, overtravel,
             feed, travel_feed, datum_x, datum_z, datum_on, tool, probe_on, probe_off, program_number, machine, output):
     """Write a FANUC probing program (G31, DPRNT) for the profile of a part program."""

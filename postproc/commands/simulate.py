@@ -16,12 +16,12 @@ import sys
 
 import click
 
-from ..diagnostics import OptionError, Reporter
+from ..diagnostics import OptionError, Reporter, UsageError
 from ..features import MIN_TOUCHES
 from ..nominal import MATERIAL
 from ..output import STDOUT, write_atomically
-from ..simulator import ballbar_test, calibrate, cut, generator, inspect, load, nominal, probe_profile
-from ..simulator.files import calibration_text, probe_text, read_surface, surface_text, trace_text
+from ..simulator import ballbar_test, calibrate, cut, generator, inspect, load, nominal, probe_profile, program_test
+from ..simulator.files import calibration_text, cmm_probe_text, probe_text, read_surface, surface_text, trace_text
 from ..simulator.nominal import run_program
 from .common import FINITE, guard
 
@@ -95,22 +95,59 @@ def command() -> None:
               help="The arc captured (default: the table's, 360; a lathe's XZ test: about 220).")
 @click.option("--overtravel", type=FINITE, metavar="DEG",
               help="Arc run before and after the capture (default: the table's, 180; a partial arc: a few).")
+@click.option("--program", metavar="FILE",
+              help="Run the bar along this program's feed moves on the test circle (a test program, compensated or "
+                   "not): its direction and feed are the program's; the centre and radius those of its arcs unless "
+                   "given.")
+@click.option("--centered", is_flag=True,
+              help="Mark the trace centered = true: the bar was not re-mounted since the trace whose set-up centre "
+                   "counts (an iteration's later traces).")
 @_output
 def ballbar(machine, seed, direction, form, radius, center_x, center_z, feed, start_angle, capture_arc, overtravel,
-            output):
-    """A ballbar trace: the 720 deg test of docs/methods.md §3 in one direction, or a partial arc."""
-    guard([("--machine", machine)], [("-o", output)])
-    simulation, _ = load(machine)
+            program, centered, output):
+    """A ballbar trace: the 720 deg test of docs/methods.md §3 in one direction, or a partial arc, or the
+    bar along a program's feed moves."""
+    guard([("--machine", machine), ("--program", program)], [("-o", output)])
+    simulation, profile = load(machine)
     seed = simulation.seed if seed is None else seed
+    if radius is not None and not radius > 0:
+        raise OptionError(f"--radius {radius:g}: the radius must be positive")
+    if program is not None:
+        run = _program_ballbar(simulation, profile, program, seed, form, radius, center_x, center_z, feed, start_angle,
+                               capture_arc, overtravel, direction)
+        provenance = _provenance("ballbar", machine, seed, run[1])
+        write_atomically(output, trace_text(run[0], provenance, centered).encode())
+        return
     centre = None
     if center_x is not None or center_z is not None:
         centre = (simulation.ballbar.center_x_mm if center_x is None else center_x,
                   simulation.ballbar.center_z_mm if center_z is None else center_z)
-    if radius is not None and not radius > 0:
-        raise OptionError(f"--radius {radius:g}: the radius must be positive")
     run = ballbar_test(simulation, generator(seed, f"ballbar-{direction}-{form}"), direction, form, radius, centre, feed,
                        start_angle, capture_arc, overtravel)
-    write_atomically(output, trace_text(run, _provenance("ballbar", machine, seed)).encode())
+    write_atomically(output, trace_text(run, _provenance("ballbar", machine, seed), centered).encode())
+
+
+def _program_ballbar(simulation, profile, program, seed, form, radius, center_x, center_z, feed, start_angle,
+                     capture_arc, overtravel, direction):
+    """(the run, the program's name) of ``simulate ballbar --program``; the options a program settles refused."""
+    source = click.get_current_context().get_parameter_source
+    given = [name for name, value in (("--feed", feed), ("--overtravel", overtravel)) if value is not None]
+    given += ["--form raw"] if form == "raw" else []
+    if given:
+        raise UsageError(f"{' and '.join(given)}: with --program the program sets the feed and the moves, and the "
+                         "trace is written processed")
+    if (center_x is None) != (center_z is None):
+        raise UsageError("a centre is a point: give --center-x and --center-z together (or neither: the program's arcs)")
+    reporter = Reporter(sys.stderr)
+    name, moves, _ = run_program(program, profile, reporter)
+    reporter.close()
+    centre = None if center_x is None else (center_x, center_z)
+    run = program_test(simulation, generator(seed, "ballbar-program"), moves, name, radius, centre, start_angle,
+                       capture_arc)
+    if source("direction") == click.core.ParameterSource.COMMANDLINE and direction != run.direction:
+        raise UsageError(f"--direction {direction}: the program runs the circle {run.direction} "
+                         f"({'G02' if run.direction == 'cw' else 'G03'})")
+    return run, name
 
 
 @command.command("cut")
@@ -179,15 +216,26 @@ def calibrate_command(machine, seed, radius, center_x, center_z, step_deg, outpu
 @click.option("--surface", metavar="FILE", help="The surface to inspect (from 'simulate cut'); default: cut it now.")
 @click.option("--points", type=int, metavar="N", help="Points along the profile (default: the table's).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of the figures.")
+@click.option("--inset", type=float, metavar="MM",
+              help="Spread the points over the profile's features, this far from each feature's ends, as "
+                   "'simulate probe --inset' does (default: evenly along the whole profile, both ends included).")
+@click.option("--probe-file", metavar="FILE",
+              help="Also write the CMM's points as a probe file (docs/formats.md §5), as a CMM measuring "
+                   "independently of the machine's axes reports them: for error-map's --probe.")
 @_machine
 @_seed
-def inspect_command(program, from_line, to_line, material, surface, points, as_json, machine, seed):
+def inspect_command(program, from_line, to_line, material, surface, points, as_json, inset, probe_file, machine, seed):
     """A virtual CMM: deviations from the nominal profile along its normal, and the four figures."""
     points = _count(points)
+    if inset is not None and not inset >= 0:
+        raise OptionError(f"--inset {inset:g}: the inset must not be negative")
     simulation, name, moves, profile_of, wear = _setup(machine, program, from_line, to_line, material)
     seed = simulation.seed if seed is None else seed
     result = inspect(_surface(surface, simulation, moves, profile_of, wear), profile_of, simulation,
-                     generator(seed, "inspect"), points)
+                     generator(seed, "inspect"), points, inset)
+    if probe_file:
+        write_atomically(probe_file, cmm_probe_text(result, simulation.probe.stylus_radius_mm,
+                                                    _provenance("inspect", machine, seed, name)).encode())
     if as_json:
         click.echo(json.dumps({"program": name, **result.as_dict()}, indent=2, allow_nan=False))
     else:

@@ -20,8 +20,8 @@ deviation: along the normal out of the material, positive = material left. Noise
 
 from .nominal import run_program  # the submodule first: the function ``nominal`` below then takes its name here
 from ..nominal import Nominal, nominal, read_program
-from .ballbar import BallbarRun, ballbar_test
-from .calibrate import CalibrationRun, calibrate
+from .ballbar import BallbarRun, ballbar_test, program_test
+from .calibrate import CalibrationRun, artifact_round, calibrate
 from .cmm import Inspection, inspect
 from .config import Simulation, generator, load
 from .cut import cut
@@ -30,5 +30,5 @@ from .probe import ProbeRun, probe_profile
 from .surface import Turned
 
 __all__ = ["BallbarRun", "CalibrationRun", "Inspection", "Machine", "Nominal", "ProbeRun", "Simulation", "Turned",
-           "ballbar_test", "calibrate", "cut", "generator", "inspect", "load", "nominal", "probe_profile",
-           "read_program", "run_program"]
+           "artifact_round", "ballbar_test", "calibrate", "cut", "generator", "inspect", "load", "nominal",
+           "probe_profile", "program_test", "read_program", "run_program"]

@@ -15,6 +15,12 @@ radius, plus noise. Readings are evenly spaced in time, hence in commanded angle
 - processed: one reading every ``spacing_deg``, with its commanded theta;
 - raw: ``oversample`` readings per ``spacing_deg``, in time order; the reader spaces them
   as docs/formats.md §4 says (sample i at start + s i capture / n) and averages them in sixes.
+
+:func:`program_test` runs the bar along a part program's feed moves instead (the dissertation's
+loop, docs/methods.md §5.1): a compensated test circle measured again. The bar reads the
+distance from the tool to the pivot at the test circle's centre (plus the set-up offset) along
+the feed moves that run on the circle (every point within ``ON_CIRCLE_MM`` of it); each
+reading is given the commanded point's angle about the centre, one every ``spacing_deg``.
 """
 
 from __future__ import annotations
@@ -24,14 +30,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..diagnostics import OptionError
-from ..geometry import Arc, Line
+from ..diagnostics import Location, OptionError
+from ..geometry import Arc, Line, segment_of
+from ..motion import ARC, LINE, Move
 from .config import Simulation
 from .errors import Machine
-from .path import Commanded, Timeline
+from .path import Commanded, Timeline, sample, speed
 
 DIRECTIONS = ("ccw", "cw")
 FORMS = ("processed", "raw")
+ON_CIRCLE_MM = 0.5  #: a feed move whose every point lies this close to the test circle runs on it
+TURNED_BACK_DEG = 1.0  #: a run on the test circle that goes back by more than this is no ballbar test
 
 
 @dataclass(frozen=True)
@@ -109,3 +118,100 @@ def ballbar_test(simulation: Simulation, rng: np.random.Generator | None, direct
         deviations = deviations + rng.normal(0.0, setup.noise_mm, deviations.size)
     angles = (first + sense * progress)[captured]
     return BallbarRun(radius, centre, direction, feed, start, angles, deviations, raw, capture)
+
+
+def program_test(simulation: Simulation, rng: np.random.Generator | None, moves: list[Move], program: str,
+                 radius: float | None = None, centre: tuple[float, float] | None = None, start: float | None = None,
+                 capture: float | None = None) -> BallbarRun:
+    """The bar along a program's feed moves (the moves of a test circle, compensated or not).
+
+    ``centre`` and ``radius`` default to those of the program's feed arcs (one centre and radius
+    for all of them, else an OptionError asks for them); ``start`` (theta of the first reading)
+    and ``capture`` (the arc read) default to the whole arc the moves on the circle run, or the
+    360 deg in its middle when they run more (a test with pre- and over-travel).
+
+    :raises OptionError: no feed move runs on the circle, the moves on it are not one run, or
+        they turn back; the captured arc is not within what they run.
+    """
+    where = Location(program)
+    feed = [(index, move) for index, move in enumerate(moves)
+            if move.kind in (LINE, ARC) and move.known and segment_of(move).length > 0.0]
+    centre, radius = _circle(feed, centre, radius, where)
+    setup = simulation.ballbar
+    on = [index for index, move in feed if _on_circle(move, centre, radius)]
+    if not on:
+        raise OptionError(f"no feed move runs on the test circle of radius {radius:g} mm about x {centre[0]:g}, "
+                          f"z {centre[1]:g} (within {ON_CIRCLE_MM:g} mm); give --radius, --center-x and --center-z",
+                          where)
+    kept = [index for index, _ in feed]
+    first, last = kept.index(on[0]), kept.index(on[-1])
+    if kept[first:last + 1] != on:
+        gap = next(index for index in kept[first:last + 1] if index not in on)
+        raise OptionError(f"the moves on the test circle are not one run: the move on line {moves[gap].line} leaves "
+                          "it between them", where)
+    step = min(0.05, radius * math.radians(setup.spacing_deg) / 4.0)
+    commanded = sample(moves, set(on), step, simulation, program)
+    actual = Machine(simulation).tool_path(commanded)
+    mask = np.isin(commanded.move, on)
+    points, actual, time = commanded.points[mask], actual[mask], commanded.time[mask]
+    order = np.argsort(time, kind="stable")
+    points, actual = points[order], actual[order]
+    theta = np.degrees(np.unwrap(np.arctan2(points[:, 1] - centre[1], points[:, 0] - centre[0])))
+    sense = 1.0 if theta[-1] > theta[0] else -1.0
+    theta = sense * theta  # increasing in the run's sense
+    reached = np.maximum.accumulate(theta)
+    if np.any(reached - theta > TURNED_BACK_DEG):
+        raise OptionError("the moves on the test circle turn back: a ballbar test runs one way round", where)
+    # a compensated path's connecting moves may step back a hair: the bar reads where the path is new
+    ahead = np.concatenate([[True], theta[1:] > reached[:-1]])
+    theta, unique = np.unique(theta[ahead], return_index=True)
+    actual = actual[ahead][unique]
+    span = float(theta[-1] - theta[0])
+    if capture is None:
+        capture = min(span, 360.0)
+    if start is None:
+        begin = theta[0] + max(0.0, (span - capture) / 2.0)
+    else:
+        begin = sense * start
+        begin += 360.0 * math.ceil((theta[0] - begin - 1e-9) / 360.0)  # the first time the run passes it
+    count = max(int(round(capture / setup.spacing_deg)), 1)
+    readings = begin + (capture / count) * np.arange(count)  # as the built-in test: the end not read again
+    if not (0.0 < capture <= 360.0) or readings[-1] > theta[-1] + 1e-9:
+        raise OptionError(f"the captured arc ({capture:g} deg from {sense * begin % 360.0:g} deg) is not within the "
+                          f"{span:.1f} deg the moves run on the test circle", where)
+    pivot = np.array(centre) + np.array([setup.setup_offset_x_mm, setup.setup_offset_z_mm])
+    bar = np.hypot(actual[:, 0] - pivot[0], actual[:, 1] - pivot[1]) - radius
+    deviations = np.interp(readings, theta, bar)
+    if rng is not None and setup.noise_mm > 0:
+        deviations = deviations + rng.normal(0.0, setup.noise_mm, deviations.size)
+    direction = "cw" if sense > 0 else "ccw"
+    return BallbarRun(radius, centre, direction, speed(moves[on[0]], simulation, program), float(sense * readings[0]),
+                      sense * readings, deviations, False, float(capture))
+
+
+def _circle(feed: list[tuple[int, Move]], centre: tuple[float, float] | None, radius: float | None,
+            where: Location) -> tuple[tuple[float, float], float]:
+    """The test circle: as given, or the program's feed arcs' one centre and radius."""
+    arcs = [segment_of(move) for _, move in feed if move.kind == ARC]
+    if centre is None:
+        centres = {(round(arc.xc, 6), round(arc.zc, 6)) for arc in arcs}
+        if len(centres) != 1:
+            raise OptionError("the test circle's centre: " + ("the program has no feed arc" if not centres else
+                              f"the program's arcs have {len(centres)} centres") + "; give --center-x and --center-z",
+                              where)
+        centre = next(iter(centres))
+    if radius is None:
+        radii = {round(arc.r, 6) for arc in arcs if math.isclose(arc.xc, centre[0], abs_tol=1e-6)
+                 and math.isclose(arc.zc, centre[1], abs_tol=1e-6)}
+        if len(radii) != 1:
+            raise OptionError("the test circle's radius: no feed arc about the centre has one radius; give --radius",
+                              where)
+        radius = next(iter(radii))
+    if not radius > 0:
+        raise OptionError(f"--radius {radius:g}: the radius must be positive", where)
+    return (float(centre[0]), float(centre[1])), float(radius)
+
+
+def _on_circle(move: Move, centre: tuple[float, float], radius: float) -> bool:
+    points = segment_of(move).point_at(np.linspace(0.0, 1.0, 33))
+    return bool(np.all(np.abs(np.hypot(points[:, 0] - centre[0], points[:, 1] - centre[1]) - radius) <= ON_CIRCLE_MM))

@@ -1,6 +1,8 @@
 """A virtual CMM: the deviation of a surface from the nominal profile of its program.
 
-At ``count`` points evenly spaced along the profile (both ends included), the deviation is
+At ``count`` points evenly spaced along the profile (both ends included), or, given an
+``inset``, spread over its features clear of their ends as a probe run spreads them
+(:meth:`.nominal.Nominal.spread`: what a CMM program that keeps off corners measures), the deviation is
 the signed distance from the nominal point to where the surface crosses the nominal normal,
 positive out of the material (material left where the nominal says air), nearest crossing
 first, within ``REACH`` mm; plus the CMM's noise. Summarised by the four figures.
@@ -36,9 +38,13 @@ class Inspection:
 
 
 def inspect(surface: Turned, nominal: Nominal, simulation: Simulation, rng: np.random.Generator | None,
-            count: int | None = None) -> Inspection:
+            count: int | None = None, inset: float | None = None) -> Inspection:
     count = count or simulation.cmm.points
-    points, normals, s = nominal.stations(count)
+    if inset is None:
+        points, normals, s = nominal.stations(count)
+    else:
+        s = nominal.spread(count, inset).s
+        points, normals = nominal.places(s)
     deviations = np.empty(count)
     for i in range(count):
         crossing = surface.crossing(points[i], normals[i], REACH)

@@ -17,6 +17,21 @@ in radius coordinates of the work coordinate system the part programs use.
   each axis last moved in + (as after a reference return).
 - ``rapid_mm_min`` (10000): rapid traverse rate (only the servo lag needs times).
 
+``[[simulation.term]]``: general error terms, any number of them, each a table of its own:
+a polynomial in the position about the reference, added to one axis's error,
+
+    e_axis += value_mm (u / length_mm)^x_power (w / length_mm)^z_power,  u = x - x_ref, w = z - z_ref.
+
+- ``axis`` (required): ``"x"`` or ``"z"``, the error the term adds to.
+- ``value_mm`` (required): the term at u = w = ``length_mm`` (where it has both powers).
+- ``x_power``, ``z_power`` (0, 0): whole numbers from 0 to 6.
+- ``length_mm`` (100): the length the powers are taken over.
+
+A bowed Z slide (X straightness along Z) is ``axis = "x"`` with ``z_power = 2``; a Z error
+growing with X squared ``axis = "z"`` with ``x_power = 2``; a Z-carriage yaw carrying the
+cross slide round (an error that grows with x times z) ``axis = "z"``, ``x_power = 1``,
+``z_power = 1``. Unlike ``straightness_mm`` a term is not tied to a slide's span.
+
 ``[simulation.x]`` and ``[simulation.z]``: one axis each.
 
 - ``scaling`` (0): actual minus nominal per unit length, about the reference.
@@ -106,11 +121,14 @@ from .. import profile as profiles
 from ..diagnostics import Location, OptionError
 
 ANY, NONNEGATIVE, POSITIVE, COUNT, PAIR, OPTIONAL = "any", "nonnegative", "positive", "count", "pair", "optional"
+AXIS = "axis"
+REQUIRED = object()  #: the default of a key every table must give
+MAX_POWER = 6  #: highest power of a general error term
 
 
-def _key(default: Any, rule: str = ANY, low: int = 0):
-    """A configuration field: its default, the rule its value obeys, and a count's minimum."""
-    return field(default=default, metadata={"rule": rule, "low": low})
+def _key(default: Any, rule: str = ANY, low: int = 0, high: int | None = None):
+    """A configuration field: its default, the rule its value obeys, and a count's bounds."""
+    return field(default=default, metadata={"rule": rule, "low": low, "high": high})
 
 
 @dataclass(frozen=True, slots=True)
@@ -189,6 +207,23 @@ class Cmm:
     points: int = _key(36, COUNT, 2)
 
 
+@dataclass(frozen=True, slots=True)
+class Term:
+    """A general error term: ``value_mm (u / length_mm)^x_power (w / length_mm)^z_power`` added to one axis."""
+
+    axis: str = _key(REQUIRED, AXIS)
+    value_mm: float = _key(REQUIRED)
+    x_power: int = _key(0, COUNT, 0, MAX_POWER)
+    z_power: int = _key(0, COUNT, 0, MAX_POWER)
+    length_mm: float = _key(100.0, POSITIVE)
+
+    def at(self, u, w) -> np.ndarray:
+        """The term at offsets (u, w) from the reference, mm."""
+        u = np.asarray(u, dtype=float) / self.length_mm
+        w = np.asarray(w, dtype=float) / self.length_mm
+        return self.value_mm * u**self.x_power * w**self.z_power
+
+
 TABLES = {"x": Axis, "z": Axis, "ballbar": Ballbar, "probe": Probe, "artifact": Artifact, "cut": Cut, "cmm": Cmm}
 
 
@@ -211,6 +246,7 @@ class Simulation:
     artifact: Artifact = field(default_factory=Artifact)
     cut: Cut = field(default_factory=Cut)
     cmm: Cmm = field(default_factory=Cmm)
+    term: tuple[Term, ...] = ()  #: the general error terms, in the order given
     origin: str = field(default="<perfect machine>", compare=False)  #: the profile it came from
 
     def axis(self, name: str) -> Axis:
@@ -233,7 +269,7 @@ def from_table(table: Any, profile: profiles.MachineProfile = profiles.DEFAULT, 
     """Check a ``[simulation]`` table and fill in the defaults (straightness spans: soft limits)."""
     if not isinstance(table, dict):
         raise OptionError("'simulation' must be a table", Location(origin))
-    values = _fields(Simulation, table, "simulation", origin, tables=TABLES)
+    values = _fields(Simulation, table, "simulation", origin, tables=TABLES, lists={"term": Term})
     # Without soft limits in the profile, the V40R's travel (docs/methods.md §1) spans the bow.
     spans = {"x": profile.x_limits or (-5.0, 265.0), "z": profile.z_limits or (-450.0, 450.0)}
     for name in ("x", "z"):
@@ -244,20 +280,31 @@ def from_table(table: Any, profile: profiles.MachineProfile = profiles.DEFAULT, 
     return Simulation(**values, origin=origin)
 
 
-def _fields(cls, table: dict, where: str, origin: str, tables: dict | None = None) -> dict[str, Any]:
+def _fields(cls, table: dict, where: str, origin: str, tables: dict | None = None,
+            lists: dict | None = None) -> dict[str, Any]:
     known = {f.name: f for f in dataclasses.fields(cls) if f.name != "origin"}
+    tables, lists = tables or {}, lists or {}
     values: dict[str, Any] = {}
     for key, value in table.items():
         name = f"{where}.{key}"
-        if tables and key in tables:
+        if key in tables:
             if not isinstance(value, dict):
                 raise OptionError(f"'{name}' must be a table", Location(origin))
             values[key] = tables[key](**_fields(tables[key], value, name, origin))
+        elif key in lists:
+            if not (isinstance(value, list) and all(isinstance(item, dict) for item in value)):
+                raise OptionError(f"'{name}' must be an array of tables ([[{name}]])", Location(origin))
+            values[key] = tuple(lists[key](**_fields(lists[key], item, f"{name}[{index + 1}]", origin))
+                                for index, item in enumerate(value))
         elif key in known and known[key].metadata:
             values[key] = _checked(name, value, known[key].metadata, origin)
         else:
-            choices = ", ".join(sorted(k for k in known if not (tables and k in tables)))
+            choices = ", ".join(sorted(k for k in known if k not in tables and k not in lists))
             raise OptionError(f"unknown key '{name}' in the machine profile (known here: {choices})", Location(origin))
+    missing = [f.name for f in known.values() if f.metadata and f.metadata["rule"] != OPTIONAL
+               and f.default is REQUIRED and f.name not in values]
+    if missing:
+        raise OptionError(f"'{where}' needs {', '.join(repr(m) for m in missing)}", Location(origin))
     return values
 
 
@@ -265,8 +312,14 @@ def _checked(name: str, value: Any, rule: dict, origin: str) -> Any:
     kind = rule["rule"]
     where = Location(origin)
     if kind == COUNT:
-        if not isinstance(value, int) or isinstance(value, bool) or value < rule["low"]:
-            raise OptionError(f"'{name}' must be a whole number of at least {rule['low']}", where)
+        high = rule["high"]
+        if not isinstance(value, int) or isinstance(value, bool) or value < rule["low"] or (high is not None and value > high):
+            bounds = f"from {rule['low']} to {high}" if high is not None else f"of at least {rule['low']}"
+            raise OptionError(f"'{name}' must be a whole number {bounds}", where)
+        return value
+    if kind == AXIS:
+        if value not in ("x", "z"):
+            raise OptionError(f"'{name}' must be \"x\" or \"z\"", where)
         return value
     if kind == PAIR:
         if not (isinstance(value, list) and len(value) == 2 and all(_number(v) for v in value)) or not value[0] < value[1]:

@@ -2,7 +2,7 @@
 
 The control runs every move of the program (so that lost motion and servo lag carry over
 from one move to the next); the surface is what the tool tip leaves along the profile
-(:mod:`postproc.nominal`):
+(:mod:`postproc.nominal`), from the moment a lagging axis has caught up with the profile's start:
 
 1. actual tool path = commanded + machine error (:mod:`.errors`) + tool-setting offset + the
    wear the program's G10 blocks gave the move's offset number (``wear``,
@@ -26,13 +26,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..motion import Move
-from ..nominal import Nominal
+from ..nominal import ON_AXIS_MM, Nominal
 from .config import Simulation
 from .errors import Machine
 from .path import sample
 from .surface import Turned
-
-ON_AXIS_MM = 0.01  #: a profile end this close to the spindle axis starts or ends on it
 
 
 def cut(moves: list[Move], nominal: Nominal, simulation: Simulation,
@@ -43,6 +41,13 @@ def cut(moves: list[Move], nominal: Nominal, simulation: Simulation,
     commanded = sample(moves, set(place), setup.step_mm, simulation, nominal.program)
     actual = Machine(simulation).tool_path(commanded)
     on_profile = np.isin(commanded.move, nominal.indexes)
+    # a lagging axis spends its lag finishing the move before the profile (a rapid, at its own
+    # speed): the tip is not on the profile yet, and what it passes then is no surface of it
+    lag = max(simulation.x.lag_s, simulation.z.lag_s)
+    if lag > 0.0 and on_profile.any():
+        begin = commanded.time[on_profile].min()
+        settled = on_profile & (commanded.time >= begin + lag)
+        on_profile = settled if settled.sum() >= 2 else on_profile
     tip = actual[on_profile] + np.array([setup.tool_offset_x_mm, setup.tool_offset_z_mm])
     if wear:
         worn = np.array([wear.get(moves[i].offset, (0.0, 0.0)) for i in range(len(moves))])

@@ -2,13 +2,14 @@
 
 docs/methods.md §8, extended. With u = x - x_ref, w = z - z_ref (the machine's reference):
 
-    e_x = a_x u + d_x sin(2 pi w / p) + s w + h_z bow_z(z)
-    e_z = a_z w + d_z sin(2 pi w / p)       + h_x bow_x(x)
+    e_x = a_x u + d_x sin(2 pi w / p) + s w + h_z bow_z(z) + sum of the x terms
+    e_z = a_z w + d_z sin(2 pi w / p)       + h_x bow_x(x) + sum of the z terms
 
 a: scaling, d: pitch-periodic term (p the ballscrew pitch; both axes as functions of z, as
 docs/methods.md §8 gives), s: squareness (the X error per unit Z), h bow: a slide's straightness, a
 parabola over its span, 1 at the middle and 0 at the ends (the Z slide bows X, the X slide
-bows Z). These are functions of the commanded position.
+bows Z), and the general terms of ``[[simulation.term]]``, each a polynomial in (u, w)
+(:class:`.config.Term`). These are functions of the commanded position.
 
 On top of them, in the order the drive chain applies them:
 
@@ -95,6 +96,11 @@ class Machine:
         pitch = np.sin(2.0 * math.pi * w / sim.pitch_mm)
         ex = sim.x.scaling * u + sim.x.pitch_amplitude_mm * pitch + sim.squareness_rad * w + bow(sim.z, z)
         ez = sim.z.scaling * w + sim.z.pitch_amplitude_mm * pitch + bow(sim.x, x)
+        for term in sim.term:
+            if term.axis == "x":
+                ex = ex + term.at(u, w)
+            else:
+                ez = ez + term.at(u, w)
         return np.column_stack([ex, ez])
 
     def _last(self, axis: int, first: float) -> float:

@@ -23,6 +23,7 @@ from ..measurements.csvfile import read_table
 from ..measurements.probe import CALIBRATION_MAGIC, PROBE_MAGIC
 from .ballbar import BallbarRun
 from .calibrate import CalibrationRun
+from .cmm import Inspection
 from .probe import ProbeRun
 from .surface import Turned
 
@@ -42,10 +43,13 @@ def _header(magic: str, keys: dict[str, object], provenance: dict[str, object]) 
     return lines
 
 
-def trace_text(run: BallbarRun, provenance: dict[str, object]) -> str:
+def trace_text(run: BallbarRun, provenance: dict[str, object], centered: bool = False) -> str:
+    """A trace file; ``centered`` marks it so (the bar not re-mounted since the trace whose centre counts)."""
     keys: dict[str, object] = {"radius_mm": f"{run.radius:.10g}", "direction": run.direction,
                                "center_x_mm": f"{run.centre[0]:.10g}", "center_z_mm": f"{run.centre[1]:.10g}",
                                "feed_mm_min": f"{run.feed:.10g}"}
+    if centered:
+        keys["centered"] = "true"
     if run.raw:
         keys |= {"start_angle_deg": f"{run.start_angle:.10g}", "capture_arc_deg": f"{run.capture:.10g}"}
         rows = ["deviation_mm"] + [_number(value) for value in run.deviations]
@@ -70,6 +74,17 @@ def probe_text(run: ProbeRun, provenance: dict[str, object]) -> str:
     if run.datum_before:
         keys["repeatability_mm"] = f"{run.repeatability:.10g}"
     return "\n".join(_header(PROBE_MAGIC, keys, provenance) + _touch_rows(run.centres, run.approach)) + "\n"
+
+
+def cmm_probe_text(inspection: Inspection, stylus_radius: float, provenance: dict[str, object]) -> str:
+    """The CMM's points as a probe file: at each point the stylus centre a CMM with a ball of
+    ``stylus_radius`` reports, touching along the nominal normal (its own probing errors already
+    compensated, as a CMM's software does), so that ``C + R_stylus n`` is the measured point."""
+    normals = inspection.normals
+    measured = inspection.points + inspection.deviations[:, None] * normals
+    keys = {"stylus_radius_mm": f"{stylus_radius:.10g}"}
+    return "\n".join(_header(PROBE_MAGIC, keys, provenance)
+                     + _touch_rows(measured + stylus_radius * normals, -normals)) + "\n"
 
 
 def calibration_text(run: CalibrationRun, provenance: dict[str, object]) -> str:
