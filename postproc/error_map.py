@@ -59,7 +59,7 @@ except ImportError:  # declared in pyproject.toml; an environment not reinstalle
 
 from . import ballbar_fit
 from .ballbar_fit import Samples
-from .diagnostics import Location, MeasurementError
+from .diagnostics import Location
 
 DEGREE = 3  #: cubic B-splines
 INTERVALS = 6  #: knot intervals per axis over the box the measurements span

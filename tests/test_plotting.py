@@ -7,7 +7,6 @@ import math
 import re
 import struct
 
-import pytest
 from click.testing import CliRunner
 from hypothesis import given, strategies as st
 
