@@ -14,7 +14,7 @@ import sys
 
 import click
 
-from . import __version__
+from . import __version__, progress
 from . import profile as profiles
 from .commands.common import FINITE, LOG, guard
 from .diagnostics import (EXIT_INTERNAL, EXIT_WOULD_CHANGE, Location, PostprocError, Reporter, UsageError,
@@ -78,6 +78,15 @@ def _wrap(command: click.Command) -> None:
         _wrap(sub)
 
 
+def _with_quiet(command: click.Command) -> click.Command:
+    """``-q``/``--quiet`` after the command name too (``postproc compensate ... -q``), as before it."""
+    if not any(param.name == "quiet" for param in command.params):
+        command.params.append(click.Option(["-q", "--quiet"], **QUIET))
+    for sub in getattr(command, "commands", {}).values():
+        _with_quiet(sub)
+    return command
+
+
 class _Commands(click.Group):
     """Commands in modules of their own are imported when used, so that ``postproc check``
     does not pay for numpy, scipy or matplotlib."""
@@ -119,7 +128,8 @@ class _Commands(click.Group):
             command = importlib.import_module(self.modules[name]).command
             _wrap(command)
             self.add_command(command, name)
-        return super().get_command(ctx, name)
+        command = super().get_command(ctx, name)
+        return _with_quiet(command) if command is not None else None
 
 
 def _quiet_stdout() -> None:
@@ -163,20 +173,45 @@ class _Tee:
         return self.stream.isatty()
 
 
+def _quiet(ctx: click.Context, param, value: bool) -> None:
+    """``-q``/``--quiet``, before the command or in it: errors only, from here on."""
+    if value:
+        progress.set_quiet(True)
+        ctx.find_root().call_on_close(lambda: progress.set_quiet(False))
+
+
+QUIET = dict(is_flag=True, expose_value=False, is_eager=True, callback=_quiet,
+             help="Show errors only: no warnings, no summary lines, no progress.")
+
+
 @click.group(cls=_Commands, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="postproc")
 @click.option("--log", metavar="FILE", help="Copy every message to FILE (appended) as well as to stderr.")
+@click.option("-q", "--quiet", **QUIET)
 @click.pass_context
 def main(ctx: click.Context, log: str | None = None) -> None:
     """Rewrite FANUC lathe part programs so that the next part is cut right."""
     _catch(ctx, signal.SIGTERM)
     _catch(ctx, signal.SIGHUP)
+    _on_terminal(ctx)
     if log:
         try:
             sys.stderr = _Tee(sys.stderr, open(log, "a", encoding="utf-8"))
         except OSError as exc:
             raise click.UsageError(f"--log {log}: {exc.strerror}") from None
         ctx.meta[LOG] = log
+
+
+def _on_terminal(ctx: click.Context) -> None:
+    """On a terminal, stderr erases the progress line before each message (:mod:`postproc.progress`)."""
+    stderr = sys.stderr
+    sys.stderr = progress.on_terminal(stderr)
+    if sys.stderr is not stderr:
+        def restore():
+            sys.stderr = stderr
+            progress.off_terminal()
+
+        ctx.call_on_close(restore)
 
 
 def _catch(ctx: click.Context, signum: int) -> None:
@@ -257,7 +292,7 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
             _write_report(pipeline, report_file)
         if check_only and changed:
             for name in changed:
-                click.echo(f"{name}: would be changed", err=True)
+                progress.inform(f"{name}: would be changed")
             sys.exit(EXIT_WOULD_CHANGE)
         return
     if out_dir:
@@ -280,12 +315,10 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
     if report_file:
         _write_report(pipeline, report_file)
     if pipeline.core is not None:
-        click.echo(
+        progress.inform(
             f"{summary.name}: {summary.replaced} blocks replaced by {summary.emitted}; largest correction "
             f"{summary.largest_correction * 1000:.2f} um; largest deviation from the intended path "
-            f"{summary.largest_deviation * 1000:.3f} um",
-            err=True,
-        )
+            f"{summary.largest_deviation * 1000:.3f} um")
 
 
 def _nothing_applied(pipeline, reporter: Reporter, written: bool = True) -> None:
@@ -324,7 +357,7 @@ def _workers(jobs: int, programs: int) -> int:
     if workers < jobs:
         runs = "1 process runs" if workers == 1 else f"{workers} processes run"
         counted = f"{programs} program{'s' * (programs != 1)}, {cpus} CPU{'s' * (cpus != 1)}"
-        click.echo(format_message("warning", f"--jobs {jobs}: {runs} ({counted})", None), err=True)
+        progress.inform(format_message("warning", f"--jobs {jobs}: {runs} ({counted})", None))
     return workers
 
 
@@ -432,7 +465,7 @@ def check(input, machine):
         blocks, moves = tally_source(source, _profile(machine), reporter)
         name = source.name
     reporter.close()
-    click.echo(f"{name}: ok: {blocks} lines, {moves} moves, {len(reporter.warnings)} warnings", err=True)
+    progress.inform(f"{name}: ok: {blocks} lines, {moves} moves, {len(reporter.warnings)} warnings")
 
 
 @main.command()

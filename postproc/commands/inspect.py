@@ -25,6 +25,7 @@ import sys
 import click
 import numpy as np
 
+from .. import progress
 from ..diagnostics import EXIT_WOULD_CHANGE, OptionError, Reporter
 from ..figures import figures
 from ..geometry import Profile, segment_of
@@ -91,8 +92,7 @@ def command(program, probe_path, calibration, band, from_line, to_line, machine,
     click.echo(_report(result) if not as_json else json.dumps({k: v for k, v in result.items() if k != "summary"},
                                                               indent=2, allow_nan=False))
     if not result["in_tolerance"]:
-        click.echo(f"{name}: {RECUT}: {result['outside']} of {result['points']} points outside +-{band:g} mm",
-                   err=True)
+        progress.inform(f"{name}: {RECUT}: {result['outside']} of {result['points']} points outside +-{band:g} mm")
         sys.exit(EXIT_RECUT)
 
 

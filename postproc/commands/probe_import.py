@@ -16,6 +16,7 @@ import sys
 
 import click
 
+from .. import progress
 from ..diagnostics import OptionError, Reporter
 from ..output import STDOUT, write_atomically
 from ..probe_printout import probe_data, probe_file_text, read_printout
@@ -43,4 +44,4 @@ def command(printout, stylus_radius, repeatability, output):
     write_atomically(output, probe_file_text(data, provenance).encode())
     reporter.close()
     datum = ", datum " + " and ".join(sorted(data.datum_before)) if data.datum_before else ", no datum"
-    click.echo(f"{run.path}: {len(data.centres)} points{datum}", err=True)
+    progress.inform(f"{run.path}: {len(data.centres)} points{datum}")

@@ -18,6 +18,7 @@ import sys
 
 import click
 
+from .. import progress
 from ..diagnostics import Location, Reporter, UsageError
 from ..output import STDOUT, write_atomically
 from ..probe_cycle import DATUM_SURFACES, Cycle, code_digits, plan, self_check
@@ -87,9 +88,9 @@ def command(program, points, per_feature, from_line, to_line, material, inset, s
     reporter.close()
     datums = len(planned.touches) - len(planned.points)
     first, last = planned.lines
-    click.echo(f"{name}: probing program O{program_number:04d}: {len(planned.points)} points on lines {first}-{last}"
-               f"{f', {datums} datum touches' if datums else ''}; read its printout with 'postproc probe-import'",
-               err=True)
+    progress.inform(f"{name}: probing program O{program_number:04d}: {len(planned.points)} points on lines "
+                    f"{first}-{last}{f', {datums} datum touches' if datums else ''}; read its printout with "
+                    "'postproc probe-import'")
     for feature, count, (start, end) in zip(planned.features, planned.spread.counts, planned.spread.insets):
-        click.echo(f"  {feature.describe()}: {count} point{'' if count == 1 else 's'}"
-                   + (f", {start:.3f} mm from its start and {end:.3f} mm from its end" if count else ""), err=True)
+        progress.inform(f"  {feature.describe()}: {count} point{'' if count == 1 else 's'}"
+                        + (f", {start:.3f} mm from its start and {end:.3f} mm from its end" if count else ""))

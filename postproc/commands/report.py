@@ -16,6 +16,7 @@ import sys
 
 import click
 
+from .. import progress
 from ..diagnostics import Reporter, UsageError
 from ..output import STDOUT, write_atomically
 from .common import FINITE, guard
@@ -59,7 +60,7 @@ def command(program, output, plugins, ballbar, probe, calibration, model, option
     reporter.close()
     if output != STDOUT:
         images = sum(1 for _ in _images(document.sections))
-        click.echo(f"{output}: report written ({len(document.sections)} sections, {images} figures)", err=True)
+        progress.inform(f"{output}: report written ({len(document.sections)} sections, {images} figures)")
 
 
 def _images(sections):
