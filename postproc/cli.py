@@ -16,7 +16,8 @@ import click
 
 from . import __version__, progress
 from . import profile as profiles
-from .commands.common import FINITE, LOG, guard
+from .commands.common import (BALLBAR, CALIBRATION, FINITE, LOG, MACHINE, MODE, MODEL, OPTION, PLUGIN, PROBE, TOLERANCE,
+                              examples, guard)
 from .diagnostics import (EXIT_INTERNAL, EXIT_WOULD_CHANGE, Location, PostprocError, Reporter, UsageError,
                           format_message)
 from .output import STDOUT, Spool
@@ -184,7 +185,12 @@ QUIET = dict(is_flag=True, expose_value=False, is_eager=True, callback=_quiet,
              help="Show errors only: no warnings, no summary lines, no progress.")
 
 
-@click.group(cls=_Commands, context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=_Commands, context_settings={"help_option_names": ["-h", "--help"]}, epilog=examples(
+    "# look at a ballbar test, fit a model from it, compensate a program with it",
+    "postproc ballbar ccw.csv cw.csv --plot polar.png",
+    "postproc fit --plugin parametric --ballbar ccw.csv --ballbar cw.csv -o lathe3.json",
+    "postproc compensate part.nc --model lathe3.json -o part-comp.nc",
+    "# every command's own examples: postproc COMMAND --help"))
 @click.version_option(__version__, prog_name="postproc")
 @click.option("--log", metavar="FILE", help="Copy every message to FILE (appended) as well as to stderr.")
 @click.option("-q", "--quiet", **QUIET)
@@ -224,19 +230,29 @@ def _catch(ctx: click.Context, signum: int) -> None:
     ctx.call_on_close(lambda: signal.signal(signum, previous))
 
 
-@main.command()
+@main.command(epilog=examples(
+    "# review what a saved model would change, then compensate into a new file",
+    "postproc compensate part.nc --model lathe3.json --diff",
+    "postproc compensate part.nc --model lathe3.json -o part-comp.nc",
+    "# fit from this morning's ballbar traces and compensate in one run",
+    "postproc compensate part.nc --plugin parametric --ballbar ccw.csv --ballbar cw.csv -o out.nc",
+    "# every program of a job into out/, two at a time; exit 1 if any would change",
+    "postproc compensate *.nc --model lathe3.json --out-dir out/ --jobs 2",
+    "postproc compensate *.nc --model lathe3.json --check",
+    "# only the finishing pass, to 2 um",
+    "postproc compensate part.nc --model lathe3.json --region N200-N300 --tolerance 0.002 -o out.nc"))
 @click.argument("inputs", nargs=-1, metavar="[INPUT...]")
-@click.option("-o", "--output", "output", metavar="OUTPUT", help="Write the program here instead of stdout.")
+@click.option("-o", "--output", "output", metavar="FILE", help="Write the program here instead of stdout.")
 @click.option("--out-dir", metavar="DIR", help="Write each program into DIR under its own name.")
-@click.option("--plugin", "plugins", multiple=True, metavar="NAME", help="A compensator to apply, in order.")
-@click.option("--ballbar", multiple=True, metavar="FILE", help="A ballbar trace.")
-@click.option("--probe", multiple=True, metavar="FILE", help="Probe points.")
-@click.option("--calibration", metavar="FILE", help="A probe calibration on an artifact.")
-@click.option("--model", metavar="FILE", help="A saved compensation model.")
-@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
-@click.option("--tolerance", type=FINITE, metavar="MM", help="Largest deviation of the emitted path.")
-@click.option("--mode", type=click.Choice(["auto", "arc", "line"]), default="auto", show_default=True)
-@click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
+@PLUGIN()
+@BALLBAR()
+@PROBE()
+@CALIBRATION()
+@MODEL(help="A compensation model saved by 'postproc fit', instead of --plugin and measurements.")
+@MACHINE()
+@TOLERANCE()
+@MODE()
+@OPTION()
 @click.option("--region", "regions", multiple=True, metavar="N100-N200|L10-L50|T01",
               help="Compensate only these blocks (several: their union).")
 @click.option("--max-correction", type=FINITE, metavar="MM", help="Refuse corrections larger than this.")
@@ -248,7 +264,8 @@ def _catch(ctx: click.Context, signum: int) -> None:
                    "block uncompensated, or write its values as numbers (it no longer follows the variable).")
 @click.option("--diff", is_flag=True, help="Write a unified diff of the change to stdout instead of the program.")
 @click.option("--check", "check_only", is_flag=True, help="Write nothing; exit 1 if the program would change.")
-@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True, help="Programs compensated at once.")
+@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True, metavar="N",
+              help="Programs compensated at once (with --out-dir).")
 @click.option("--report", "report_file", metavar="FILE", help="Write what each compensator fitted, and how well, as JSON.")
 @_reported
 def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, model, machine, tolerance, mode,
@@ -424,13 +441,18 @@ def _review(pipeline, name: str, diff: bool) -> bool:
         return changed_bytes != original
 
 
-@main.command()
-@click.option("--plugin", "plugins", multiple=True, required=True, metavar="NAME", help="The compensator to fit.")
-@click.option("--ballbar", multiple=True, metavar="FILE", help="A ballbar trace.")
-@click.option("--probe", multiple=True, metavar="FILE", help="Probe points.")
-@click.option("--calibration", metavar="FILE", help="A probe calibration on an artifact.")
-@click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
-@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
+@main.command(epilog=examples(
+    "# a parametric model from a ballbar test in both directions, with the machine's state",
+    "postproc fit --plugin parametric --ballbar ccw.csv --ballbar cw.csv --note 'warmed up 2 h' -o lathe3.json",
+    "# a profile model from a probed first pass",
+    "postproc fit --plugin iterative --probe pass1.csv --calibration artifact.csv -o pass1.json",
+    "# then: postproc compensate part.nc --model lathe3.json -o out.nc"))
+@PLUGIN(required=True, help="The compensator to fit ('postproc plugins' lists them).")
+@BALLBAR()
+@PROBE()
+@CALIBRATION()
+@OPTION()
+@MACHINE()
 @click.option("--note", metavar="TEXT", help="The machine's state, e.g. 'warmed up 2 h'.")
 @click.option("--force", is_flag=True, help="Use measurements that failed a check (the datum check).")
 @click.option("-o", "--output", "output", metavar="FILE", default="-", help="Where the model goes (JSON).")
@@ -451,9 +473,13 @@ def fit(plugins, ballbar, probe, calibration, options, machine, note, force, out
     reporter.close()
 
 
-@main.command()
+@main.command(epilog=examples(
+    "postproc check part.nc",
+    "postproc check part.nc --machine lathe3.toml",
+    "# from a pipe",
+    "cat part.nc | postproc check"))
 @click.argument("input", default="-")
-@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
+@MACHINE()
 @_reported
 def check(input, machine):
     """Parse and interpret a program: diagnostics only, no output program."""
@@ -468,19 +494,23 @@ def check(input, machine):
     progress.inform(f"{name}: ok: {blocks} lines, {moves} moves, {len(reporter.warnings)} warnings")
 
 
-@main.command()
+@main.command(epilog=examples(
+    "# the tool path as CSV, one row per motion",
+    "postproc path part.nc -o path.csv",
+    "# draw it, with the path a model would cut (the correction magnified)",
+    "postproc path part.nc --plot path.png --model lathe3.json"))
 @click.argument("input", default="-")
-@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
+@MACHINE()
 @click.option("-o", "--output", "output", metavar="FILE", help="Write the CSV here instead of stdout.")
 @click.option("--plot", metavar="FILE", help="Draw the path (and the compensated one) to a .png or .svg.")
-@click.option("--plugin", "plugins", multiple=True, metavar="NAME", help="With --plot: a compensator to draw.")
-@click.option("--ballbar", multiple=True, metavar="FILE")
-@click.option("--probe", multiple=True, metavar="FILE")
-@click.option("--calibration", metavar="FILE")
-@click.option("--model", metavar="FILE")
-@click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
-@click.option("--tolerance", type=FINITE, metavar="MM")
-@click.option("--mode", type=click.Choice(["auto", "arc", "line"]), default="auto")
+@PLUGIN(help="With --plot: a compensator whose corrected path is drawn too.")
+@BALLBAR(help="With --plot and --plugin: a ballbar trace for the compensator.")
+@PROBE(help="With --plot and --plugin: probe points for the compensator.")
+@CALIBRATION(help="With --plot and --plugin: a probe calibration on an artifact.")
+@MODEL(help="With --plot: a saved model whose corrected path is drawn too.")
+@OPTION(help="With --plot and --plugin: a compensator's setting, as compensate takes it.")
+@TOLERANCE(help="With --plot and a compensator: as compensate takes it (mm).")
+@MODE(help="With --plot and a compensator: as compensate takes it.")
 @click.option("--macro-values", type=click.Choice(["refuse", "keep", "numbers"]), default="refuse",
               help="With --plot and a compensator: as compensate takes it.")
 @_reported
@@ -520,13 +550,16 @@ def path(input, machine, output, plot, plugins, ballbar, probe, calibration, mod
     reporter.close()
 
 
-@main.group()
+@main.group(epilog=examples("postproc profile show --machine lathe3.toml"))
 def profile():
     """Machine profiles."""
 
 
-@profile.command("show")
-@click.option("--machine", metavar="FILE", help="A machine profile (TOML); without it, the embedded default.")
+@profile.command("show", epilog=examples(
+    "# the embedded default, as a start for a profile of your own",
+    "postproc profile show > lathe3.toml",
+    "postproc profile show --machine lathe3.toml"))
+@MACHINE()
 @_reported
 def profile_show(machine):
     """Print the machine profile in force, as TOML."""
@@ -535,7 +568,7 @@ def profile_show(machine):
     click.echo(to_toml(_profile(machine)), nl=False)
 
 
-@main.command("plugins")
+@main.command("plugins", epilog=examples("postproc plugins"))
 @_reported
 def list_plugins():
     """The installed compensators, one per line: name, version, description."""

@@ -19,20 +19,24 @@ import click
 from .. import progress
 from ..diagnostics import Reporter, UsageError
 from ..output import STDOUT, write_atomically
-from .common import FINITE, guard
+from .common import BALLBAR, CALIBRATION, MACHINE, MODEL, OPTION, PLUGIN, PROBE, TOLERANCE, examples, guard
 
 
-@click.command("report")
+@click.command("report", epilog=examples(
+    "# the ballbar test, the model fitted from it and the program it compensates",
+    "postproc report part.nc --plugin parametric --ballbar ccw.csv --ballbar cw.csv -o report.html",
+    "# a saved model's report",
+    "postproc report --model lathe3.json -o lathe3.html"))
 @click.argument("program", required=False, metavar="[PROGRAM]")
 @click.option("-o", "--output", "output", default=STDOUT, metavar="FILE", help="Write the report here (HTML).")
-@click.option("--plugin", "plugins", multiple=True, metavar="NAME", help="A compensator to fit and report, in order.")
-@click.option("--ballbar", multiple=True, metavar="FILE", help="A ballbar trace.")
-@click.option("--probe", multiple=True, metavar="FILE", help="Probe points.")
-@click.option("--calibration", metavar="FILE", help="A probe calibration on an artifact.")
-@click.option("--model", metavar="FILE", help="A saved compensation model.")
-@click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
-@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
-@click.option("--tolerance", type=FINITE, metavar="MM", help="Largest deviation of the emitted path.")
+@PLUGIN(help="A compensator to fit and report, in order ('postproc plugins' lists them).")
+@BALLBAR()
+@PROBE()
+@CALIBRATION()
+@MODEL()
+@OPTION()
+@MACHINE()
+@TOLERANCE()
 def command(program, output, plugins, ballbar, probe, calibration, model, options, machine, tolerance):
     """An HTML report: measurements, ISO figures, fitted models, predicted profile, provenance."""
     from .. import profile as profiles
