@@ -16,8 +16,8 @@ import click
 
 from . import __version__, progress
 from . import profile as profiles
-from .commands.common import (BALLBAR, CALIBRATION, FINITE, LOG, MACHINE, MODE, MODEL, OPTION, PLUGIN, PROBE, TOLERANCE,
-                              examples, guard)
+from .commands.common import (BALLBAR, CALIBRATION, FINITE, LOG, MACHINE, MODE, MODEL, OPTION, PLUGIN, PROBE, PROJECT,
+                              TOLERANCE, examples, guard)
 from .diagnostics import (EXIT_INTERNAL, EXIT_WOULD_CHANGE, Location, PostprocError, Reporter, UsageError,
                           format_message)
 from .output import STDOUT, Spool
@@ -194,9 +194,15 @@ QUIET = dict(is_flag=True, expose_value=False, is_eager=True, callback=_quiet,
 @click.version_option(__version__, prog_name="postproc")
 @click.option("--log", metavar="FILE", help="Copy every message to FILE (appended) as well as to stderr.")
 @click.option("-q", "--quiet", **QUIET)
+@click.option("--project", "project_file", metavar="FILE",
+              help="The project file to use, instead of the postproc.toml found from the working directory up.")
+@click.option("--no-project", is_flag=True, help="Use no project file.")
 @click.pass_context
-def main(ctx: click.Context, log: str | None = None) -> None:
-    """Rewrite FANUC lathe part programs so that the next part is cut right."""
+def main(ctx: click.Context, log: str | None = None, project_file: str | None = None, no_project: bool = False) -> None:
+    """Rewrite FANUC lathe part programs so that the next part is cut right.
+
+    Defaults a shop sets once (the machine profile, the model, the tolerance) go in a
+    postproc.toml in the working directory or a parent: see 'postproc profile show'."""
     _catch(ctx, signal.SIGTERM)
     _catch(ctx, signal.SIGHUP)
     _on_terminal(ctx)
@@ -206,6 +212,55 @@ def main(ctx: click.Context, log: str | None = None) -> None:
         except OSError as exc:
             raise click.UsageError(f"--log {log}: {exc.strerror}") from None
         ctx.meta[LOG] = log
+    if project_file and no_project:
+        raise click.UsageError("give --project FILE or --no-project, not both")
+    try:
+        _use_project(ctx, None if no_project else project_file, no_project)
+    except PostprocError as exc:
+        click.echo(str(exc), err=True)
+        sys.exit(exc.exit_code)
+
+
+def _use_project(ctx: click.Context, path: str | None, none: bool) -> None:
+    """Read the project file (docs/formats.md §19) and make its values the defaults of the
+    command about to run (click's default_map: an option on the command line wins)."""
+    from . import project as projects
+
+    found = projects.Project(None, "none: --no-project") if none else projects.load(path)
+    ctx.meta[PROJECT] = found
+    name = ctx.invoked_subcommand
+    if found.values and name:
+        command = ctx.command.get_command(ctx, name)
+        if command is not None:
+            ctx.default_map = {name: _defaults(command, name, found)}
+
+
+def _defaults(command: click.Command, name: str, found) -> dict:
+    if isinstance(command, click.Group):
+        return {sub: _defaults(each, sub, found) for sub, each in command.commands.items()}
+    return found.defaults(name, {param.name for param in command.params})
+
+
+def _compensation(plugins, model, options):
+    """The compensation of this run: the command line's (``--plugin`` or ``--model``) sets the
+    project file's plugins, model and options aside together; from the project file alone, a
+    model wins over plugins (which are then ``fit``'s)."""
+    given = (plugins and not _from_file("plugins")) or (model and not _from_file("model"))
+    if given or model:
+        plugins = () if _from_file("plugins") else plugins
+        options = () if _from_file("options") else options
+    if given and _from_file("model"):
+        model = None
+    if not (plugins or model) and _from_file("options"):  # settings for compensators the run does not use
+        options = ()
+    return plugins, model, options
+
+
+def _from_file(name: str) -> bool:
+    """Whether this option's value came from the project file."""
+    from click.core import ParameterSource
+
+    return click.get_current_context().get_parameter_source(name) is ParameterSource.DEFAULT_MAP
 
 
 def _on_terminal(ctx: click.Context) -> None:
@@ -274,6 +329,9 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
     """Compensate part programs; with no compensator, write the input back byte for byte."""
     from .api import Pipeline
 
+    plugins, model, options = _compensation(plugins, model, options)
+    if not (plugins or model) and _from_file("macro_values"):
+        macro_values = "refuse"  # the project's choice for compensated blocks: none are compensated
     inputs = inputs or ("-",)
     if output and out_dir:
         raise UsageError("give -o or --out-dir, not both")
@@ -459,6 +517,7 @@ def _review(pipeline, name: str, diff: bool) -> bool:
 @_reported
 def fit(plugins, ballbar, probe, calibration, options, machine, note, force, output):
     """Fit a compensator's model from measurements and save it (apply it with compensate --model)."""
+    plugins, _, options = _compensation(plugins, None, options)
     from .models import dumps
     from .output import write_atomically
     from .pipeline import Pipeline
@@ -550,22 +609,63 @@ def path(input, machine, output, plot, plugins, ballbar, probe, calibration, mod
     reporter.close()
 
 
-@main.group(epilog=examples("postproc profile show --machine lathe3.toml"))
+@main.group(epilog=examples("postproc profile init lathe3.toml", "postproc profile show --machine lathe3.toml"))
 def profile():
-    """Machine profiles."""
+    """Machine profiles, and the project file that names one."""
 
 
 @profile.command("show", epilog=examples(
-    "# the embedded default, as a start for a profile of your own",
-    "postproc profile show > lathe3.toml",
+    "# the profile in force here (the project file's, or the embedded default), and where it came from",
+    "postproc profile show",
     "postproc profile show --machine lathe3.toml"))
 @MACHINE()
 @_reported
 def profile_show(machine):
-    """Print the machine profile in force, as TOML."""
+    """Print the machine profile in force, as TOML, after two comment lines: the project file
+    used and where the profile came from."""
+    from click.core import ParameterSource
+
     from .profile import to_toml
 
+    context = click.get_current_context()
+    project = context.find_root().meta.get(PROJECT)
+    if project is not None and project.path:
+        click.echo(f"# project file: {project.path}")
+    else:
+        click.echo(f"# project file: {project.searched if project is not None else 'none'}")
+    source = context.get_parameter_source("machine")
+    origin = ("the project file" if source is ParameterSource.DEFAULT_MAP else "--machine") if machine else None
+    click.echo(f"# machine profile: {machine} (from {origin})" if machine else "# machine profile: the embedded default")
     click.echo(to_toml(_profile(machine)), nl=False)
+
+
+@profile.command("init", epilog=examples(
+    "# a profile of your lathe to edit: every key, its default and what it means",
+    "postproc profile init lathe3.toml",
+    "postproc profile init lathe3.toml --name lathe3"))
+@click.argument("file", metavar="FILE")
+@click.option("--name", metavar="NAME", help="The profile's name (models record it); default: the file's name.")
+@_reported
+def profile_init(file, name):
+    """Write a commented starter machine profile to FILE (never over an existing file)."""
+    from .profile import starter
+
+    text = starter(name or os.path.splitext(os.path.basename(file))[0] or "lathe")
+    if file == "-":
+        click.echo(text, nl=False)
+        return
+    try:
+        fd = os.open(file, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+    except FileExistsError:
+        raise UsageError(f"{file} exists: profile init never overwrites a file; give a new name") from None
+    except OSError as exc:
+        from .output import OutputError, explain
+
+        raise OutputError(f"cannot create the profile: {explain(exc)}", Location(file)) from None
+    with os.fdopen(fd, "w", encoding="utf-8") as out:
+        out.write(text)
+    progress.inform(f"{file}: starter machine profile written; edit it, then check it with "
+                    f"'postproc profile show --machine {file}'")
 
 
 @main.command("plugins", epilog=examples("postproc plugins"))

@@ -21,6 +21,7 @@ from ..diagnostics import EXIT_BAD_INPUT, UsageError, format_message
 from ..output import refuse_overwrite
 
 LOG = "postproc.log"  #: the click context's meta key of the ``--log`` file
+PROJECT = "postproc.project"  #: the click context's meta key of the project file in use
 
 
 class BadValue(click.ClickException):
@@ -121,7 +122,8 @@ def _shared(*declarations, **attributes):
 
 
 MACHINE = _shared("--machine", metavar="FILE",
-                  help="A machine profile (TOML, docs/formats.md §15); without it, the embedded FANUC 18i-T lathe.")
+                  help="A machine profile (TOML, docs/formats.md §15); without it, the project file's "
+                       "(postproc.toml), else the embedded FANUC 18i-T lathe.")
 PLUGIN = _shared("--plugin", "plugins", multiple=True, metavar="NAME", shell_complete=complete_compensators,
                  help="A compensator to apply, in order ('postproc plugins' lists them).")
 BALLBAR = _shared("--ballbar", multiple=True, metavar="FILE",
