@@ -15,7 +15,6 @@ exit code see them) but not shown, and the information lines (summaries, "ok") a
 
 from __future__ import annotations
 
-import sys
 from contextlib import contextmanager
 from typing import Iterator
 
@@ -48,8 +47,10 @@ def inform(text: str) -> None:
 
 
 def shown() -> bool:
-    """Whether a progress line would be drawn now: stderr a terminal, not quiet, none on screen."""
-    return _bar is None and not Reporter.silent and _isatty(sys.stderr)
+    """Whether a progress line would be drawn now: the command line runs on a terminal
+    (:func:`on_terminal`; a program using postproc as a library gets none), not quiet, and no
+    line is on the screen already."""
+    return _bar is None and _terminal is not None and not Reporter.silent
 
 
 def _isatty(stream) -> bool:
@@ -71,6 +72,7 @@ class _Bar:
 
     def __init__(self, total: int, label: str, stream, count: bool):
         self.stream = stream
+        self.drawn = False  #: the line is on the screen (not erased since it was last drawn)
         self.bar = click.progressbar(length=total, label=label, file=stream, show_pos=count, show_percent=True,
                                      show_eta=True, item_show_func=lambda item: item)
 
@@ -81,11 +83,15 @@ class _Bar:
         else:
             self.bar.current_item = item
             self.bar.render_progress()
+        self.drawn = True
 
     def clear(self) -> None:
-        """Erase the line (a message is about to be written); it is drawn again at the next update."""
-        self.stream.write(_CLEAR)
-        self.bar._last_line = None  # click draws only a changed line: make the next one count as changed
+        """Erase the line (a message is about to be written); it is drawn again at the next update.
+        Only once: a message comes in several writes (its text, then its newline)."""
+        if self.drawn:
+            self.stream.write(_CLEAR)
+            self.drawn = False
+            self.bar._last_line = None  # click draws only a changed line: make the next one count as changed
 
 
 @contextmanager
@@ -98,10 +104,10 @@ def bar(total: int, label: str, minimum: int = 1, count: bool = False) -> Iterat
     if total < minimum or not shown():
         yield _Silent()
         return
-    stream = _terminal if _terminal is not None else sys.stderr
+    stream = _terminal
     _bar = _Bar(total, label, stream, count)
     try:
-        _bar.bar.render_progress()
+        _bar.advance(0)
         yield _bar
     finally:
         _bar = None
