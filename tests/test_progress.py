@@ -148,3 +148,16 @@ def test_quiet_keeps_a_failed_programs_error_in_a_batch(tmp_path, run):
     assert result.stderr.startswith(f"{bad}:6:16: error: arc end point is off the circle")
     assert "ok ->" not in result.stderr and "warning" not in result.stderr
     assert (tmp_path / "out" / "good.nc").exists()
+
+
+def test_quiet_silences_warnings_and_summary_lines(run):
+    hemishell = str(REPO / "samples/programs/hemishell.nc")
+    loud = run("compensate", hemishell)
+    assert loud.exit_code == 0 and "warning: no compensator was given" in loud.stderr
+    quiet = run("compensate", hemishell, "--quiet")
+    assert quiet.exit_code == 0 and quiet.stderr == "" and quiet.stdout == loud.stdout
+    checked = run("-q", "compensate", hemishell, *COMPENSATE[1:], "--check")
+    assert checked.exit_code == 1 and checked.stderr == ""  # the exit code says it; no "would be changed"
+    assert run("check", hemishell).stderr.startswith(f"{hemishell}: ok: ")
+    assert run("check", hemishell, "-q").stderr == ""
+    assert run("compensate", hemishell).stderr == loud.stderr  # quiet ends with its run
