@@ -215,7 +215,7 @@ def main(ctx: click.Context, log: str | None = None, project_file: str | None = 
     if project_file and no_project:
         raise click.UsageError("give --project FILE or --no-project, not both")
     try:
-        _use_project(ctx, None if no_project else project_file, no_project)
+        _use_project(ctx, project_file, no_project)
     except PostprocError as exc:
         click.echo(str(exc), err=True)
         sys.exit(exc.exit_code)

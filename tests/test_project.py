@@ -172,3 +172,11 @@ def test_compensation_settings_without_a_compensator_are_not_a_usage_error(shop,
     assert result.stdout == open(HEMISHELL).read() and "nothing was applied" in result.stderr
     typed = run("compensate", HEMISHELL, "--macro-values", "keep")
     assert typed.exit_code == 2 and "--macro-values was given but no compensator" in typed.stderr
+
+
+def test_the_project_file_is_never_an_output(shop, run):
+    project = _project(shop, 'tolerance = 0.002\n')
+    refused = run("compensate", HEMISHELL, "-o", str(project))
+    assert refused.exit_code == 2 and refused.stdout == ""
+    assert f"is the input {project} (the project file): it would be destroyed" in refused.stderr
+    assert project.read_text() == 'tolerance = 0.002\n'

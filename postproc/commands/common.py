@@ -64,10 +64,15 @@ POSITIVE = Finite(positive=True)
 
 def guard(inputs, outputs) -> None:
     """Refuse an output that is an input or another output: ``inputs`` and ``outputs`` are
-    (option, path) pairs; the ``--log`` file counts as an output. A log that is an input is
-    detached first, so that the refusal itself is not appended to that input."""
+    (option, path) pairs; the ``--log`` file counts as an output, the project file in use as an
+    input. A log that is an input is detached first, so that the refusal itself is not appended
+    to that input."""
+    context = click.get_current_context()
+    project = context.find_root().meta.get(PROJECT)
     inputs = [(option, path) for option, path in inputs if path]
-    log = click.get_current_context().meta.get(LOG)
+    if project is not None and project.path:  # the project file is read by every run
+        inputs.append(("the project file", project.path))
+    log = context.meta.get(LOG)
     if log is not None:
         try:
             refuse_overwrite(inputs, [("--log", log)])
