@@ -256,8 +256,11 @@ def _fields(cls, table: dict, where: str, origin: str, tables: dict | None = Non
         elif key in known and known[key].metadata:
             values[key] = _checked(name, value, known[key].metadata, origin)
         else:
-            choices = ", ".join(sorted(k for k in known if not (tables and k in tables)))
-            raise OptionError(f"unknown key '{name}' in the machine profile (known here: {choices})", Location(origin))
+            from ..inputs import did_you_mean
+
+            choices = sorted(k for k in known if not (tables and k in tables))
+            raise OptionError(f"unknown key '{name}' in the machine profile{did_you_mean(key, choices)} "
+                              f"(known here: {', '.join(choices)})", Location(origin))
     return values
 
 
