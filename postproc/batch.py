@@ -3,9 +3,9 @@
 Each worker fits the compensators once (from the same request) and then takes programs
 from the queue. A program that fails is reported with its error and the others are still
 written; the run exits with the most severe failure's code. On a terminal, a progress line
-on stderr counts the files done. Running a fleet of programs across machines needs nothing
-of postproc's own: split the file list over a job array or a task queue and run one
-``postproc compensate ... --out-dir`` per share (docs/user-guide.md).
+on stderr counts the programs done (:mod:`postproc.progress`). Running a fleet of programs
+across machines needs nothing of postproc's own: split the file list over a job array or a
+task queue and run one ``postproc compensate ... --out-dir`` per share (docs/user-guide.md).
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ import signal
 import sys
 from dataclasses import dataclass
 
+from . import progress
 from .api import Pipeline
 from .diagnostics import EXIT_INTERNAL, EXIT_OK, PostprocError
 
@@ -56,30 +57,24 @@ def run(jobs: list[tuple[str, str]], pipeline: Pipeline, workers: int = 1) -> in
     """
     global _pipeline
     _pipeline = pipeline
-    progress = sys.stderr.isatty() and len(jobs) > 1
     outcomes: list[Outcome] = []
     pool = None
-    if workers <= 1:
-        results = map(_one, jobs)
-    else:
-        pool = multiprocessing.get_context("fork").Pool(workers, initializer=_worker)
-        results = pool.imap(_one, jobs)
-    try:
-        for done, outcome in enumerate(results, 1):
-            if progress:
-                sys.stderr.write("\r\x1b[2K")
-            for message in outcome.messages:
-                print(message, file=sys.stderr)
-            print(outcome.line, file=sys.stderr)
-            if progress and done < len(jobs):
-                sys.stderr.write(f"[{done}/{len(jobs)}] {os.path.basename(outcome.name)}")
-                sys.stderr.flush()
-            outcomes.append(outcome)
-    except BaseException:
-        if pool is not None:
-            pool.terminate()
-            pool.join()
-        raise
+    with progress.bar(len(jobs), "programs", minimum=2, count=True) as shown:  # before the fork: no worker draws its own
+        if workers <= 1:
+            results = map(_one, jobs)
+        else:
+            pool = multiprocessing.get_context("fork").Pool(workers, initializer=_worker)
+            results = pool.imap(_one, jobs)
+        try:
+            for outcome in results:
+                _tell(outcome)
+                shown.advance(1, os.path.basename(outcome.name))
+                outcomes.append(outcome)
+        except BaseException:
+            if pool is not None:
+                pool.terminate()
+                pool.join()
+            raise
     if pool is not None:
         pool.close()
         pool.join()
@@ -87,6 +82,17 @@ def run(jobs: list[tuple[str, str]], pipeline: Pipeline, workers: int = 1) -> in
     if failed and len(jobs) > 1:
         print(f"postproc: {len(failed)} of {len(jobs)} programs failed", file=sys.stderr)
     return max((o.code for o in failed), default=EXIT_OK)
+
+
+def _tell(outcome: Outcome) -> None:
+    """A program's warnings, its error and its summary line; with ``--quiet``, its error alone."""
+    if progress.quiet():
+        if outcome.code != EXIT_OK:
+            print(outcome.messages[-1], file=sys.stderr)
+        return
+    for message in outcome.messages:
+        print(message, file=sys.stderr)
+    print(outcome.line, file=sys.stderr)
 
 
 def _worker() -> None:

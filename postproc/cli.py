@@ -14,9 +14,10 @@ import sys
 
 import click
 
-from . import __version__
+from . import __version__, progress
 from . import profile as profiles
-from .commands.common import FINITE, LOG, guard
+from .commands.common import (BALLBAR, CALIBRATION, FINITE, LOG, MACHINE, MODE, MODEL, OPTION, PLUGIN, PROBE, PROJECT,
+                              TOLERANCE, examples, guard)
 from .diagnostics import (EXIT_INTERNAL, EXIT_WOULD_CHANGE, Location, OutputError, PostprocError, Reporter, Stopped,
                           UsageError, format_message)
 from .output import STDOUT, Spool
@@ -82,6 +83,15 @@ def _wrap(command: click.Command) -> None:
         _wrap(sub)
 
 
+def _with_quiet(command: click.Command) -> click.Command:
+    """``-q``/``--quiet`` after the command name too (``postproc compensate ... -q``), as before it."""
+    if not any(param.name == "quiet" for param in command.params):
+        command.params.append(click.Option(["-q", "--quiet"], **QUIET))
+    for sub in getattr(command, "commands", {}).values():
+        _with_quiet(sub)
+    return command
+
+
 class _Commands(click.Group):
     """Commands in modules of their own are imported when used, so that ``postproc check``
     does not pay for numpy, scipy or matplotlib."""
@@ -125,7 +135,8 @@ class _Commands(click.Group):
             command = importlib.import_module(self.modules[name]).command
             _wrap(command)
             self.add_command(command, name)
-        return super().get_command(ctx, name)
+        command = super().get_command(ctx, name)
+        return _with_quiet(command) if command is not None else None
 
 
 def _quiet_stdout() -> None:
@@ -169,23 +180,108 @@ class _Tee:
         return self.stream.isatty()
 
 
-@click.group(cls=_Commands, context_settings={"help_option_names": ["-h", "--help"]})
+def _quiet(ctx: click.Context, param, value: bool) -> None:
+    """``-q``/``--quiet``, before the command or in it: errors only, from here on."""
+    if value:
+        progress.set_quiet(True)
+        ctx.find_root().call_on_close(lambda: progress.set_quiet(False))
+
+
+QUIET = dict(is_flag=True, expose_value=False, is_eager=True, callback=_quiet,
+             help="Show errors only: no warnings, no summary lines, no progress.")
+
+
+@click.group(cls=_Commands, context_settings={"help_option_names": ["-h", "--help"]}, epilog=examples(
+    "# look at a ballbar test, fit a model from it, compensate a program with it",
+    "postproc ballbar ccw.csv cw.csv --plot polar.png",
+    "postproc fit --plugin parametric --ballbar ccw.csv --ballbar cw.csv -o lathe3.json",
+    "postproc compensate part.nc --model lathe3.json -o part-comp.nc",
+    "# every command's own examples: postproc COMMAND --help"))
 @click.version_option(__version__, prog_name="postproc")
 @click.option("--log", metavar="FILE", help="Copy every message to FILE (appended) as well as to stderr.")
+@click.option("-q", "--quiet", **QUIET)
+@click.option("--project", "project_file", metavar="FILE",
+              help="The project file to use, instead of the postproc.toml found from the working directory up.")
+@click.option("--no-project", is_flag=True, help="Use no project file.")
 @click.pass_context
-def main(ctx: click.Context, log: str | None = None) -> None:
-    """Rewrite FANUC lathe part programs so that the next part is cut right."""
+def main(ctx: click.Context, log: str | None = None, project_file: str | None = None, no_project: bool = False) -> None:
+    """Rewrite FANUC lathe part programs so that the next part is cut right.
+
+    Defaults a shop sets once (the machine profile, the model, the tolerance) go in a
+    postproc.toml in the working directory or a parent: see 'postproc profile show'."""
     _catch(ctx, signal.SIGTERM)
     _catch(ctx, signal.SIGHUP)
     if log == "":
         raise click.UsageError("--log is empty (a shell variable that is not set?): give a file, or leave the "
                                "option out")
+    _on_terminal(ctx)
     if log:
         try:
             sys.stderr = _Tee(sys.stderr, open(log, "a", encoding="utf-8"))
         except OSError as exc:
             raise click.UsageError(f"--log {log}: {exc.strerror}") from None
         ctx.meta[LOG] = log
+    if project_file and no_project:
+        raise click.UsageError("give --project FILE or --no-project, not both")
+    try:
+        _use_project(ctx, project_file, no_project)
+    except PostprocError as exc:
+        click.echo(str(exc), err=True)
+        sys.exit(exc.exit_code)
+
+
+def _use_project(ctx: click.Context, path: str | None, none: bool) -> None:
+    """Read the project file (docs/formats.md §19) and make its values the defaults of the
+    command about to run (click's default_map: an option on the command line wins)."""
+    from . import project as projects
+
+    found = projects.Project(None, "none: --no-project") if none else projects.load(path)
+    ctx.meta[PROJECT] = found
+    name = ctx.invoked_subcommand
+    if found.values and name:
+        command = ctx.command.get_command(ctx, name)
+        if command is not None:
+            ctx.default_map = {name: _defaults(command, name, found)}
+
+
+def _defaults(command: click.Command, name: str, found) -> dict:
+    if isinstance(command, click.Group):
+        return {sub: _defaults(each, sub, found) for sub, each in command.commands.items()}
+    return found.defaults(name, {param.name for param in command.params})
+
+
+def _compensation(plugins, model, options):
+    """The compensation of this run: the command line's (``--plugin`` or ``--model``) sets the
+    project file's plugins, model and options aside together; from the project file alone, a
+    model wins over plugins (which are then ``fit``'s)."""
+    given = (plugins and not _from_file("plugins")) or (model and not _from_file("model"))
+    if given or model:
+        plugins = () if _from_file("plugins") else plugins
+        options = () if _from_file("options") else options
+    if given and _from_file("model"):
+        model = None
+    if not (plugins or model) and _from_file("options"):  # settings for compensators the run does not use
+        options = ()
+    return plugins, model, options
+
+
+def _from_file(name: str) -> bool:
+    """Whether this option's value came from the project file."""
+    from click.core import ParameterSource
+
+    return click.get_current_context().get_parameter_source(name) is ParameterSource.DEFAULT_MAP
+
+
+def _on_terminal(ctx: click.Context) -> None:
+    """On a terminal, stderr erases the progress line before each message (:mod:`postproc.progress`)."""
+    stderr = sys.stderr
+    sys.stderr = progress.on_terminal(stderr)
+    if sys.stderr is not stderr:
+        def restore():
+            sys.stderr = stderr
+            progress.off_terminal()
+
+        ctx.call_on_close(restore)
 
 
 def _catch(ctx: click.Context, signum: int) -> None:
@@ -198,19 +294,29 @@ def _catch(ctx: click.Context, signum: int) -> None:
     ctx.call_on_close(lambda: signal.signal(signum, previous))
 
 
-@main.command()
+@main.command(epilog=examples(
+    "# review what a saved model would change, then compensate into a new file",
+    "postproc compensate part.nc --model lathe3.json --diff",
+    "postproc compensate part.nc --model lathe3.json -o part-comp.nc",
+    "# fit from this morning's ballbar traces and compensate in one run",
+    "postproc compensate part.nc --plugin parametric --ballbar ccw.csv --ballbar cw.csv -o out.nc",
+    "# every program of a job into out/, two at a time; exit 1 if any would change",
+    "postproc compensate *.nc --model lathe3.json --out-dir out/ --jobs 2",
+    "postproc compensate *.nc --model lathe3.json --check",
+    "# only the finishing pass, to 2 um",
+    "postproc compensate part.nc --model lathe3.json --region N200-N300 --tolerance 0.002 -o out.nc"))
 @click.argument("inputs", nargs=-1, metavar="[INPUT...]")
-@click.option("-o", "--output", "output", metavar="OUTPUT", help="Write the program here instead of stdout.")
+@click.option("-o", "--output", "output", metavar="FILE", help="Write the program here instead of stdout.")
 @click.option("--out-dir", metavar="DIR", help="Write each program into DIR under its own name.")
-@click.option("--plugin", "plugins", multiple=True, metavar="NAME", help="A compensator to apply, in order.")
-@click.option("--ballbar", multiple=True, metavar="FILE", help="A ballbar trace.")
-@click.option("--probe", multiple=True, metavar="FILE", help="Probe points.")
-@click.option("--calibration", metavar="FILE", help="A probe calibration on an artifact.")
-@click.option("--model", metavar="FILE", help="A saved compensation model.")
-@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
-@click.option("--tolerance", type=FINITE, metavar="MM", help="Largest deviation of the emitted path.")
-@click.option("--mode", type=click.Choice(["auto", "arc", "line"]), default="auto", show_default=True)
-@click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
+@PLUGIN()
+@BALLBAR()
+@PROBE()
+@CALIBRATION()
+@MODEL(help="A compensation model saved by 'postproc fit', instead of --plugin and measurements.")
+@MACHINE()
+@TOLERANCE()
+@MODE()
+@OPTION()
 @click.option("--region", "regions", multiple=True, metavar="N100-N200|L10-L50|T01",
               help="Compensate only these blocks (several: their union).")
 @click.option("--max-correction", type=FINITE, metavar="MM", help="Refuse corrections larger than this.")
@@ -222,7 +328,8 @@ def _catch(ctx: click.Context, signum: int) -> None:
                    "block uncompensated, or write its values as numbers (it no longer follows the variable).")
 @click.option("--diff", is_flag=True, help="Write a unified diff of the change to stdout instead of the program.")
 @click.option("--check", "check_only", is_flag=True, help="Write nothing; exit 1 if the program would change.")
-@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True, help="Programs compensated at once.")
+@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True, metavar="N",
+              help="Programs compensated at once (with --out-dir).")
 @click.option("--report", "report_file", metavar="FILE", help="Write what each compensator fitted, and how well, as JSON.")
 @_reported
 def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, model, machine, tolerance, mode,
@@ -231,6 +338,9 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
     """Compensate part programs; with no compensator, write the input back byte for byte."""
     from .api import Pipeline
 
+    plugins, model, options = _compensation(plugins, model, options)
+    if not (plugins or model) and _from_file("macro_values"):
+        macro_values = "refuse"  # the project's choice for compensated blocks: none are compensated
     inputs = inputs or ("-",)
     if output and out_dir:
         raise UsageError("give -o or --out-dir, not both")
@@ -266,7 +376,7 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
             _write_report(pipeline, report_file)
         if check_only and changed:
             for name in changed:
-                click.echo(f"{name}: would be changed", err=True)
+                progress.inform(f"{name}: would be changed")
             sys.exit(EXIT_WOULD_CHANGE)
         return
     if out_dir:
@@ -289,12 +399,10 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
     if report_file:
         _write_report(pipeline, report_file)
     if pipeline.core is not None:
-        click.echo(
+        progress.inform(
             f"{summary.name}: {summary.replaced} blocks replaced by {summary.emitted}; largest correction "
             f"{summary.largest_correction * 1000:.2f} um; largest deviation from the intended path "
-            f"{summary.largest_deviation * 1000:.3f} um",
-            err=True,
-        )
+            f"{summary.largest_deviation * 1000:.3f} um")
 
 
 def _nothing_applied(pipeline, reporter: Reporter, written: bool = True) -> None:
@@ -333,7 +441,7 @@ def _workers(jobs: int, programs: int) -> int:
     if workers < jobs:
         runs = "1 process runs" if workers == 1 else f"{workers} processes run"
         counted = f"{programs} program{'s' * (programs != 1)}, {cpus} CPU{'s' * (cpus != 1)}"
-        click.echo(format_message("warning", f"--jobs {jobs}: {runs} ({counted})", None), err=True)
+        progress.inform(format_message("warning", f"--jobs {jobs}: {runs} ({counted})", None))
     return workers
 
 
@@ -400,19 +508,25 @@ def _review(pipeline, name: str, diff: bool) -> bool:
         return changed_bytes != original
 
 
-@main.command()
-@click.option("--plugin", "plugins", multiple=True, required=True, metavar="NAME", help="The compensator to fit.")
-@click.option("--ballbar", multiple=True, metavar="FILE", help="A ballbar trace.")
-@click.option("--probe", multiple=True, metavar="FILE", help="Probe points.")
-@click.option("--calibration", metavar="FILE", help="A probe calibration on an artifact.")
-@click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
-@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
+@main.command(epilog=examples(
+    "# a parametric model from a ballbar test in both directions, with the machine's state",
+    "postproc fit --plugin parametric --ballbar ccw.csv --ballbar cw.csv --note 'warmed up 2 h' -o lathe3.json",
+    "# a profile model from a probed first pass",
+    "postproc fit --plugin iterative --probe pass1.csv --calibration artifact.csv -o pass1.json",
+    "# then: postproc compensate part.nc --model lathe3.json -o out.nc"))
+@PLUGIN(required=True, help="The compensator to fit ('postproc plugins' lists them).")
+@BALLBAR()
+@PROBE()
+@CALIBRATION()
+@OPTION()
+@MACHINE()
 @click.option("--note", metavar="TEXT", help="The machine's state, e.g. 'warmed up 2 h'.")
 @click.option("--force", is_flag=True, help="Use measurements that failed a check (the datum check).")
 @click.option("-o", "--output", "output", metavar="FILE", default="-", help="Where the model goes (JSON).")
 @_reported
 def fit(plugins, ballbar, probe, calibration, options, machine, note, force, output):
     """Fit a compensator's model from measurements and save it (apply it with compensate --model)."""
+    plugins, _, options = _compensation(plugins, None, options)
     from .models import dumps
     from .output import write_atomically
     from .pipeline import Pipeline
@@ -428,9 +542,13 @@ def fit(plugins, ballbar, probe, calibration, options, machine, note, force, out
     reporter.close()
 
 
-@main.command()
+@main.command(epilog=examples(
+    "postproc check part.nc",
+    "postproc check part.nc --machine lathe3.toml",
+    "# from a pipe",
+    "cat part.nc | postproc check"))
 @click.argument("input", default="-")
-@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
+@MACHINE()
 @_reported
 def check(input, machine):
     """Parse and interpret a program: diagnostics only, no output program."""
@@ -442,22 +560,26 @@ def check(input, machine):
         blocks, moves = tally_source(source, _profile(machine), reporter)
         name = source.name
     reporter.close()
-    click.echo(f"{name}: ok: {blocks} lines, {moves} moves, {len(reporter.warnings)} warnings", err=True)
+    progress.inform(f"{name}: ok: {blocks} lines, {moves} moves, {len(reporter.warnings)} warnings")
 
 
-@main.command()
+@main.command(epilog=examples(
+    "# the tool path as CSV, one row per motion",
+    "postproc path part.nc -o path.csv",
+    "# draw it, with the path a model would cut (the correction magnified)",
+    "postproc path part.nc --plot path.png --model lathe3.json"))
 @click.argument("input", default="-")
-@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
+@MACHINE()
 @click.option("-o", "--output", "output", metavar="FILE", help="Write the CSV here instead of stdout.")
 @click.option("--plot", metavar="FILE", help="Draw the path (and the compensated one) to a .png or .svg.")
-@click.option("--plugin", "plugins", multiple=True, metavar="NAME", help="With --plot: a compensator to draw.")
-@click.option("--ballbar", multiple=True, metavar="FILE")
-@click.option("--probe", multiple=True, metavar="FILE")
-@click.option("--calibration", metavar="FILE")
-@click.option("--model", metavar="FILE")
-@click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
-@click.option("--tolerance", type=FINITE, metavar="MM")
-@click.option("--mode", type=click.Choice(["auto", "arc", "line"]), default="auto")
+@PLUGIN(help="With --plot: a compensator whose corrected path is drawn too.")
+@BALLBAR(help="With --plot and --plugin: a ballbar trace for the compensator.")
+@PROBE(help="With --plot and --plugin: probe points for the compensator.")
+@CALIBRATION(help="With --plot and --plugin: a probe calibration on an artifact.")
+@MODEL(help="With --plot: a saved model whose corrected path is drawn too.")
+@OPTION(help="With --plot and --plugin: a compensator's setting, as compensate takes it.")
+@TOLERANCE(help="With --plot and a compensator: as compensate takes it (mm).")
+@MODE(help="With --plot and a compensator: as compensate takes it.")
 @click.option("--macro-values", type=click.Choice(["refuse", "keep", "numbers"]), default="refuse",
               help="With --plot and a compensator: as compensate takes it.")
 @_reported
@@ -497,22 +619,66 @@ def path(input, machine, output, plot, plugins, ballbar, probe, calibration, mod
     reporter.close()
 
 
-@main.group()
+@main.group(epilog=examples("postproc profile init lathe3.toml", "postproc profile show --machine lathe3.toml"))
 def profile():
-    """Machine profiles."""
+    """Machine profiles, and the project file that names one."""
 
 
-@profile.command("show")
-@click.option("--machine", metavar="FILE", help="A machine profile (TOML); without it, the embedded default.")
+@profile.command("show", epilog=examples(
+    "# the profile in force here (the project file's, or the embedded default), and where it came from",
+    "postproc profile show",
+    "postproc profile show --machine lathe3.toml"))
+@MACHINE()
 @_reported
 def profile_show(machine):
-    """Print the machine profile in force, as TOML."""
+    """Print the machine profile in force, as TOML, after two comment lines: the project file
+    used and where the profile came from."""
+    from click.core import ParameterSource
+
     from .profile import to_toml
 
+    context = click.get_current_context()
+    project = context.find_root().meta.get(PROJECT)
+    if project is not None and project.path:
+        click.echo(f"# project file: {project.path}")
+    else:
+        click.echo(f"# project file: {project.searched if project is not None else 'none'}")
+    source = context.get_parameter_source("machine")
+    origin = ("the project file" if source is ParameterSource.DEFAULT_MAP else "--machine") if machine else None
+    click.echo(f"# machine profile: {machine} (from {origin})" if machine else "# machine profile: the embedded default")
     click.echo(to_toml(_profile(machine)), nl=False)
 
 
-@main.command("plugins")
+@profile.command("init", epilog=examples(
+    "# a profile of your lathe to edit: every key, its default and what it means",
+    "postproc profile init lathe3.toml",
+    "postproc profile init lathe3.toml --name lathe3"))
+@click.argument("file", metavar="FILE")
+@click.option("--name", metavar="NAME", help="The profile's name (models record it); default: the file's name.")
+@_reported
+def profile_init(file, name):
+    """Write a commented starter machine profile to FILE (never over an existing file)."""
+    from .profile import starter
+
+    text = starter(name or os.path.splitext(os.path.basename(file))[0] or "lathe")
+    if file == "-":
+        click.echo(text, nl=False)
+        return
+    try:
+        fd = os.open(file, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+    except FileExistsError:
+        raise UsageError(f"{file} exists: profile init never overwrites a file; give a new name") from None
+    except OSError as exc:
+        from .output import OutputError, explain
+
+        raise OutputError(f"cannot create the profile: {explain(exc)}", Location(file)) from None
+    with os.fdopen(fd, "w", encoding="utf-8") as out:
+        out.write(text)
+    progress.inform(f"{file}: starter machine profile written; edit it, then check it with "
+                    f"'postproc profile show --machine {file}'")
+
+
+@main.command("plugins", epilog=examples("postproc plugins"))
 @_reported
 def list_plugins():
     """The installed compensators, one per line: name, version, description."""

@@ -245,6 +245,8 @@ class Reporter:
     million-block program with one habit does not bury the other messages.
     """
 
+    silent = False  #: ``--quiet``: warnings are collected (reports and models see them), not shown
+
     def __init__(self, stream: TextIO | None = None, limit: int = 20):
         self.stream = stream
         self.limit = limit
@@ -257,12 +259,12 @@ class Reporter:
         warning = Diagnostic(message, location)
         if count <= self.limit:
             self.warnings.append(warning)
-            if self.stream is not None:
+            if self.stream is not None and not self.silent:
                 print(warning, file=self.stream)
 
     def close(self) -> None:
         """Say how many repeated warnings were not shown."""
-        if self.stream is None:
+        if self.stream is None or self.silent:
             return
         for message, count in self._seen.items():
             if count > self.limit:

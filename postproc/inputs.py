@@ -114,11 +114,43 @@ def read_toml(path: str, limit: int, error: type[PostprocError], what: str) -> t
     try:
         return tomllib.loads(text), text
     except tomllib.TOMLDecodeError as exc:
-        found = re.search(r"\(at line (\d+)", str(exc))
-        message = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
-        raise error(f"not valid TOML: {message}", Location(path, int(found.group(1)) if found else None)) from None
+        found = re.search(r"\(at line (\d+), column (\d+)\)", str(exc))
+        message = re.sub(r"\s*\(at (line \d+, column \d+|end of document)\)", "", str(exc))
+        where = Location(path)
+        lines = text.splitlines()
+        if found:
+            line = int(found.group(1))
+            where = Location(path, line, int(found.group(2)), lines[line - 1] if line <= len(lines) else None)
+        elif "(at end of document)" in str(exc) and lines:  # something left open: where the text ends
+            where = Location(path, len(lines), len(lines[-1]) + 1, lines[-1])
+        raise error(f"not valid TOML: {message}", where) from None
     except RecursionError:
         raise error(f"nested too deeply to be {what}", Location(path)) from None
+
+
+def toml_key(path: str, text: str, key: str, table: str | None = None) -> Location:
+    """Where ``key`` is written in a TOML text (at the top, or in ``[table]``): its line and
+    column, with the line for the caret; the file alone when it cannot be found (a key in an
+    inline table, say)."""
+    current = None
+    pattern = re.compile(rf"^(\s*)(?:{re.escape(key)}|\"{re.escape(key)}\"|'{re.escape(key)}')\s*=")
+    for number, line in enumerate(text.splitlines(), 1):
+        header = re.match(r"^\s*\[\s*([^\]]+?)\s*\]", line)
+        if header:
+            current = header.group(1).strip("\"'")
+            continue
+        found = pattern.match(line)
+        if found and current == table:
+            return Location(path, number, len(found.group(1)) + 1, line)
+    return Location(path)
+
+
+def did_you_mean(word: str, known) -> str:
+    """``; did you mean 'x_limits'?`` for the known word nearest a misspelt one, or nothing."""
+    import difflib
+
+    close = difflib.get_close_matches(word, sorted(known), n=1, cutoff=0.6)
+    return f"; did you mean '{close[0]}'?" if close else ""
 
 
 def recorded(path: str) -> Snapshot | None:

@@ -16,6 +16,7 @@ read in whatever units the control was left in. The header says what was added w
 
 from __future__ import annotations
 
+import os
 import re
 import signal
 import tempfile
@@ -24,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from . import __version__, bounds, inputs, models
+from . import __version__, bounds, inputs, models, progress
 from . import gcodes as G
 from . import plugins as registry
 from .compensator import Compensator, Context, Measurements, check_options, parse_options
@@ -112,12 +113,17 @@ class Pipeline:
         paths = [path for files in given.values() for path in files]
         self.inputs += [(path, _digest(path)) for path in paths]
         self.measured = models.measurement_times(paths)
-        for compensator in self.compensators:
-            measurements = Measurements(**{kind: list(read[kind]) if kind in compensator.takes else [] for kind in read})
-            missing = [kind for kind in compensator.needs if not getattr(measurements, kind)]
-            if missing:
-                raise UsageError(f"{compensator.name} needs {' and '.join('--' + kind for kind in missing)} measurements")
-            self._guarded(compensator, "fit", compensator.fit, measurements)
+        with progress.bar(len(self.compensators), "fitting") as shown:
+            for compensator in self.compensators:
+                measurements = Measurements(**{kind: list(read[kind]) if kind in compensator.takes else []
+                                               for kind in read})
+                missing = [kind for kind in compensator.needs if not getattr(measurements, kind)]
+                if missing:
+                    raise UsageError(f"{compensator.name} needs {' and '.join('--' + kind for kind in missing)} "
+                                     "measurements")
+                shown.advance(0, compensator.name)
+                self._guarded(compensator, "fit", compensator.fit, measurements)
+                shown.advance(1, compensator.name)
 
     @staticmethod
     def _guarded(compensator: Compensator, what: str, function, *args, model: str | None = None):
@@ -177,17 +183,21 @@ class Pipeline:
         lead: list[str] = []  # the tape mark and program number go before the provenance block
         written = 0  # blocks written: one per source line up to the anchor, none of them replaced
         with tempfile.SpooledTemporaryFile(max_size=1 << 20) as body:
-            for text in rewriter.run():
-                written += 1
-                if body.tell() == 0 and _is_program_start(text) and len(lead) < 8:
-                    lead.append(text)
-                    continue
-                body.write(text.encode("utf-8", "surrogateescape"))
-                if opening and written == anchor.block.line:
-                    if text != anchor.block.raw:
-                        raise InternalError(f"line {anchor.block.line} was not written as it was read: the opening "
-                                            "blocks have no place")
-                    body.write("".join(line + anchor.block.eol for _, line in opening).encode())
+            total = progress.lines(source) if progress.shown() else 0  # counted only for a line on a terminal
+            with progress.bar(total, os.path.basename(source.name), progress.MIN_BLOCKS) as shown:
+                for text in rewriter.run():
+                    written += 1
+                    if not written % progress.EVERY:
+                        shown.advance(progress.EVERY)
+                    if body.tell() == 0 and _is_program_start(text) and len(lead) < 8:
+                        lead.append(text)
+                        continue
+                    body.write(text.encode("utf-8", "surrogateescape"))
+                    if opening and written == anchor.block.line:
+                        if text != anchor.block.raw:
+                            raise InternalError(f"line {anchor.block.line} was not written as it was read: the opening "
+                                                "blocks have no place")
+                        body.write("".join(line + anchor.block.eol for _, line in opening).encode())
             for compensator in self.compensators:
                 self._guarded(compensator, "finish", compensator.finish, model=self.request.model)
             spool.write("".join(lead).encode("utf-8", "surrogateescape"))

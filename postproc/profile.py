@@ -89,11 +89,20 @@ def load(path: str) -> MachineProfile:
     """Read a profile from TOML; unknown keys are refused (``x-`` keys are kept aside)."""
     from . import inputs
 
-    data, _ = inputs.read_toml(path, MAX_BYTES, OptionError, "a machine profile")
-    return from_mapping(data, path)
+    data, text = inputs.read_toml(path, MAX_BYTES, OptionError, "a machine profile")
+    return from_mapping(data, path, text)
 
 
-def from_mapping(data: dict[str, Any], origin: str = "<profile>") -> MachineProfile:
+def from_mapping(data: dict[str, Any], origin: str = "<profile>", text: str | None = None) -> MachineProfile:
+    """A profile from a TOML document; ``text``, the document as written, lets an error point at
+    the key's line and column."""
+    from .inputs import did_you_mean, toml_key
+
+    written = {key.replace("-", "_"): key for key in data}
+
+    def at(name: str) -> Location:
+        return toml_key(origin, text, written.get(name, name)) if text is not None else Location(origin)
+
     values: dict[str, Any] = {}
     extra: dict[str, Any] = {}
     for key, value in data.items():
@@ -102,21 +111,20 @@ def from_mapping(data: dict[str, Any], origin: str = "<profile>") -> MachineProf
             extra[key] = value
             continue
         if name not in _FIELDS:
-            raise OptionError(f"unknown key {key!r} in machine profile", Location(origin))
-        values[name] = _checked(name, value, origin)
+            raise OptionError(f"unknown key {key!r} in machine profile{did_you_mean(name, _FIELDS)}", at(name))
+        values[name] = _checked(name, value, at(name))
     profile = MachineProfile(**values, extra=extra)
-    where = Location(origin)
-    bounds.max_correction(profile.max_correction, "max_correction =", where)
+    bounds.max_correction(profile.max_correction, "max_correction =", at("max_correction"))
     if profile.tolerance is not None:
-        bounds.tolerance(profile.tolerance, profile.max_correction, "tolerance =", where)
+        bounds.tolerance(profile.tolerance, profile.max_correction, "tolerance =", at("tolerance"))
     if profile.gcode_system not in ("A", "B", "C"):
-        raise OptionError("gcode_system must be A, B or C", Location(origin))
+        raise OptionError("gcode_system must be A, B or C", at("gcode_system"))
     if profile.input_increment not in INCREMENTS:
-        raise OptionError(f"input_increment must be one of {', '.join(INCREMENTS)}", Location(origin))
+        raise OptionError(f"input_increment must be one of {', '.join(INCREMENTS)}", at("input_increment"))
     return profile
 
 
-def _checked(name: str, value: Any, origin: str) -> Any:
+def _checked(name: str, value: Any, where: Location) -> Any:
     default = getattr(DEFAULT, name)
     if name in ("x_limits", "z_limits"):
         default = (0.0, 0.0)
@@ -124,29 +132,29 @@ def _checked(name: str, value: Any, origin: str) -> Any:
         default = False
     if isinstance(default, tuple):
         if not (isinstance(value, list) and len(value) == 2 and all(_is_number(v) for v in value)):
-            raise OptionError(f"{name} must be a list of two numbers", Location(origin))
+            raise OptionError(f"{name} must be a list of two numbers", where)
         low, high = float(value[0]), float(value[1])
         if not (math.isfinite(low) and math.isfinite(high)):
-            raise OptionError(f"{name}: the limits must be finite numbers", Location(origin))
+            raise OptionError(f"{name}: the limits must be finite numbers", where)
         if not low < high:
-            raise OptionError(f"{name}: the first limit must be below the second", Location(origin))
+            raise OptionError(f"{name}: the first limit must be below the second", where)
         return (low, high)
     if isinstance(default, bool):
         if not isinstance(value, bool):
-            raise OptionError(f"{name} must be true or false", Location(origin))
+            raise OptionError(f"{name} must be true or false", where)
         return value
     if isinstance(default, int) and not isinstance(default, bool):
         if not isinstance(value, int) or isinstance(value, bool) or value < 0:
-            raise OptionError(f"{name} must be a whole number", Location(origin))
-        _within(name, value, origin)
+            raise OptionError(f"{name} must be a whole number", where)
+        _within(name, value, where)
         return value
     if isinstance(default, float) or name == "tolerance":
         if not _is_number(value) or not math.isfinite(value) or value <= 0:
-            raise OptionError(f"{name} must be a positive number", Location(origin))
-        _within(name, value, origin)
+            raise OptionError(f"{name} must be a positive number", where)
+        _within(name, value, where)
         return float(value)
     if not isinstance(value, str):
-        raise OptionError(f"{name} must be a string", Location(origin))
+        raise OptionError(f"{name} must be a string", where)
     return value
 
 
@@ -165,12 +173,12 @@ _RANGES = {
 }
 
 
-def _within(name: str, value: float, origin: str) -> None:
+def _within(name: str, value: float, where: Location) -> None:
     if name in _RANGES:
         low, high, unit = _RANGES[name]
         if not low <= value <= high:
             raise OptionError(f"{name} = {value:g}: out of range for a lathe (at most {high:g} {unit}"
-                              f"{f', at least {low:g}' if low else ''})", Location(origin))
+                              f"{f', at least {low:g}' if low else ''})", where)
 
 
 def _is_number(value: Any) -> bool:
@@ -182,15 +190,64 @@ def to_toml(profile: MachineProfile) -> str:
     lines = [f"# machine profile {profile.name!r}"]
     for name in _FIELDS:
         value = getattr(profile, name)
-        if value is None:
-            continue
-        if isinstance(value, bool):
-            text = "true" if value else "false"
-        elif isinstance(value, str):
-            text = '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
-        elif isinstance(value, tuple):
-            text = f"[{value[0]!r}, {value[1]!r}]"
-        else:
-            text = repr(value)
-        lines.append(f"{name} = {text}")
+        if value is not None:
+            lines.append(f"{name} = {_toml_value(value)}")
     return "\n".join(lines) + "\n"
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, tuple):
+        return f"[{value[0]!r}, {value[1]!r}]"
+    return repr(value)
+
+
+#: What each key means, for the starter profile (docs/formats.md §15 says it in full).
+MEANINGS = {
+    "name": "The profile's name: saved models record it.",
+    "controller": "The control, for people.",
+    "gcode_system": "FANUC lathe G-code system: A, B or C.",
+    "diameter_x": "X and U are diameters (false: radius programming).",
+    "input_increment": "Least input increment: IS-A (0.01 mm), IS-B (0.001 mm), IS-C (0.0001 mm).",
+    "calculator_input": "true: a length without a decimal point is in mm or inches (parameter 3401 DPI); false: in "
+                        "increments. Unset: compensate refuses a program that mixes both spellings.",
+    "label_skip": "The control skips from the opening % to the first end of block.",
+    "axes": "The axes the lathe has; any other axis address is refused.",
+    "arc_radius_tolerance": "The control's arc check: start and end radius may differ by this (mm).",
+    "max_arc_radius": "An arc above this radius is written as lines (mm).",
+    "min_block_time_s": "No block shorter than the feed covers in this time (s).",
+    "max_spindle_rpm": "The spindle's top speed (bounds G96 near the axis).",
+    "nose_radius_mm": "No block under G41/G42 shorter than this (mm).",
+    "x_limits": "Soft limits of x [low, high], radius mm, work coordinates: a compensated move beyond is refused.",
+    "z_limits": "Soft limits of z [low, high], mm, work coordinates.",
+    "tolerance": "Default --tolerance, mm (0.002 is 2 um). Unset: 0.001 mm, or twice the output resolution.",
+    "max_correction": "Default --max-correction, mm: a larger correction is refused.",
+    "model_max_age_days": "A saved model measured longer ago than this gets a warning.",
+    "plugin_time_limit_s": "A compensator call running longer is stopped and named (s).",
+    "output_decimals_mm": "Decimals written in metric programs.",
+    "output_decimals_inch": "Decimals written in inch programs.",
+    "spindle_speed_fluctuation": "Read and shown; no effect yet.",
+}
+#: A value to uncomment for each key that is unset by default.
+_UNSET_EXAMPLES = {"calculator_input": "true", "x_limits": "[-5.0, 265.0]", "z_limits": "[-450.0, 450.0]",
+                   "tolerance": "0.002"}
+
+
+def starter(name: str) -> str:
+    """A commented machine profile to edit: every key with what it means and its default
+    (the keys unset by default commented out, with a value to start from). Read back as it
+    is, it is the embedded default under another name."""
+    import textwrap
+
+    lines = ["# postproc machine profile (docs/formats.md §15). Every key is shown with its default;",
+             "# change what differs on your lathe and control, delete the rest if you like.",
+             "# Check it with: postproc profile show --machine THIS-FILE", ""]
+    for key in _FIELDS:
+        lines += textwrap.wrap(MEANINGS[key], 96, initial_indent="# ", subsequent_indent="# ")
+        value = name if key == "name" else getattr(DEFAULT, key)
+        lines.append(f"{key} = {_toml_value(value)}" if value is not None else f"# {key} = {_UNSET_EXAMPLES[key]}")
+        lines.append("")
+    return "\n".join(lines)

@@ -97,7 +97,7 @@ def test_the_gaussian_convention_and_the_travel_can_be_overridden(budget):
     (('travel_mm = 50.0\n', ''), r"b\.toml:13: error: source 'positioning' is length based: give travel_mm"),
     (('pv_mm = { z = 0.004 }', 'pv_mm = { z = 0.004 }\npv_um_per_mm = { z = 1 }'),
      r"b\.toml:16: error: source 'runout': give exactly one of pv_mm and pv_um_per_mm"),
-    (('name = "runout"', 'name = "runout\n'), r"b\.toml:17: error: not valid TOML: Illegal character"),
+    (('name = "runout"', 'name = "runout\n'), r"b\.toml:17:15: error: not valid TOML: Illegal character"),
 ])
 def test_a_wrong_file_names_the_file_line_and_key(budget, change, message):
     with pytest.raises(MeasurementError, match=message) as caught:

@@ -312,22 +312,22 @@ def test_numbers_that_are_not_finite_are_refused_everywhere(run, args, message):
 
 PROFILES = [
     ("nested", "x-deep = " + "[" * 3000 + "]" * 3000, ": error: nested too deeply to be a machine profile"),
-    ("tolerance-inf", "tolerance = inf", ": error: tolerance must be a positive number"),
-    ("tolerance-nan", "tolerance = nan", ": error: tolerance must be a positive number"),
-    ("tolerance-um", "tolerance = 20", ": error: tolerance = 20: a tolerance of 20 mm (20000 um) is above 0.05 mm, which "
+    ("tolerance-inf", "tolerance = inf", ":1:1: error: tolerance must be a positive number"),
+    ("tolerance-nan", "tolerance = nan", ":1:1: error: tolerance must be a positive number"),
+    ("tolerance-um", "tolerance = 20", ":1:1: error: tolerance = 20: a tolerance of 20 mm (20000 um) is above 0.05 mm, which "
                                        "would let the emitted path stray from the part; did you mean 20 um "
                                        "(tolerance = 0.02)?"),
     ("tolerance-above-correction", "max_correction = 0.01\ntolerance = 0.02",
-     ": error: tolerance = 0.02: a tolerance above the maximum correction (0.01 mm) would let the emitted path stray "
+     ":2:1: error: tolerance = 0.02: a tolerance above the maximum correction (0.01 mm) would let the emitted path stray "
      "further than any correction moves it; give at most 0.01 mm"),
-    ("correction-um", "max_correction = 5", ": error: max_correction = 5: 5 mm (5000 um) is above 1 mm, beyond any "
+    ("correction-um", "max_correction = 5", ":1:1: error: max_correction = 5: 5 mm (5000 um) is above 1 mm, beyond any "
                                             "error a compensation corrects; did you mean 5 um (max_correction = 0.005)?"),
-    ("time-limit", "plugin_time_limit_s = 1e300", ": error: plugin_time_limit_s = 1e+300: out of range for a lathe (at "
+    ("time-limit", "plugin_time_limit_s = 1e300", ":1:1: error: plugin_time_limit_s = 1e+300: out of range for a lathe (at "
                                                   "most 86400 s)"),
-    ("decimals", "output_decimals_mm = 40", ": error: output_decimals_mm = 40: out of range for a lathe (at most 6 "
+    ("decimals", "output_decimals_mm = 40", ":1:1: error: output_decimals_mm = 40: out of range for a lathe (at most 6 "
                                             "decimals, at least 2)"),
-    ("limits", "x_limits = [-inf, inf]", ": error: x_limits: the limits must be finite numbers"),
-    ("binary", "\x00\x01", ":1: error: not valid TOML: Invalid statement"),
+    ("limits", "x_limits = [-inf, inf]", ":1:1: error: x_limits: the limits must be finite numbers"),
+    ("binary", "\x00\x01", ":1:1: error: not valid TOML: Invalid statement"),
 ]
 
 

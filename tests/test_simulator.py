@@ -309,7 +309,8 @@ def test_the_sample_machine_loads_and_unknown_keys_are_refused_naming_the_file(t
     sim, profile = load(MACHINE)
     assert sim.x.scaling == 8e-5 and sim.probe.datum_z_mm == 10.0 and profile.name == "okuma-howa-v40r-virtual"
     assert sim.x.straightness_span_mm == profile.x_limits
-    for text, message in (("[simulation.x]\nscalling = 1e-5\n", "unknown key 'simulation.x.scalling'"),
+    for text, message in (("[simulation.x]\nscalling = 1e-5\n",
+                           r"unknown key 'simulation.x.scalling' in the machine profile; did you mean 'scaling'\?"),
                           ("[simulation]\nwobble = 1\n", "unknown key 'simulation.wobble'"),
                           ("[simulation.z]\nbacklash_mm = -0.1\n", "'simulation.z.backlash_mm' cannot be negative"),
                           ("[simulation.ballbar]\noversample = 1.5\n", "'simulation.ballbar.oversample' must be a whole"),

@@ -23,9 +23,14 @@ from ..commands.inspect import EXIT_RECUT
 from ..diagnostics import Location, MeasurementError, OptionError, UsageError
 from ..measurements.probe import CALIBRATION_MAGIC, Touches, read_calibration, read_probe
 from ..output import STDOUT, write_atomically
+from .common import examples, guard
 
 
-@click.command("artifact-find")
+@click.command("artifact-find", epilog=examples(
+    "# the first round's touches: exit 1 and the next round's artifact-program command, until it settles",
+    "postproc artifact-find round1.csv --artifact-radius 25.4",
+    "# settled: the calibration file from the sweep over the ball, with the found centre and apparent radius",
+    "postproc artifact-find round1.csv round2.csv --artifact-radius 25.4 --sweep sweep.csv -o calibration.csv"))
 @click.argument("rounds", nargs=-1, required=True)
 @click.option("--artifact-radius", type=float, required=True, metavar="MM", help="The sphere's certified radius.")
 @click.option("--tolerance", type=float, default=TOLERANCE, show_default=True, metavar="MM",
@@ -37,6 +42,7 @@ from ..output import STDOUT, write_atomically
 @click.option("-o", "--output", "output", default=STDOUT, metavar="FILE", help="Write the calibration file here.")
 def command(rounds, artifact_radius, tolerance, sweep, output):
     """Locate the calibration sphere from rounds of pole and side touches; write its calibration file."""
+    guard([("ROUND", name) for name in rounds] + [("--sweep", sweep)], [("-o", output)])
     for name, value in (("--artifact-radius", artifact_radius), ("--tolerance", tolerance)):
         if not (math.isfinite(value) and value > 0):
             raise OptionError(f"{name} {value:g}: must be positive")

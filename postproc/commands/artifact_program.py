@@ -18,26 +18,34 @@ from ..diagnostics import Location, OptionError, Reporter
 from ..output import write_atomically
 from ..probe_cycle import Cycle, code_digits, self_check
 from ..profile import DEFAULT, load
+from .common import FINITE, examples, guard
 from .probe_program import DEFAULTS, program_options
 
 
-@click.command("artifact-program")
-@click.option("--center-x", type=float, required=True, metavar="MM",
+@click.command("artifact-program", epilog=examples(
+    "# the first round, the centre estimated by eye; the probe on T0909",
+    "postproc artifact-program --center-x 80 --center-z 30 --artifact-radius 25.4 --clearance 3 --tool T0909 -o O8100.nc",
+    "# the next round, at the last round's finding (artifact-find prints this line)",
+    "postproc artifact-program --center-x 80.0123 --center-z 29.9871 --artifact-radius 25.4 -o O8101.nc"))
+@click.option("--center-x", type=FINITE, required=True, metavar="MM",
               help="The estimated centre's x (radius): by eye for the first round, the last round's finding after.")
-@click.option("--center-z", type=float, required=True, metavar="MM", help="The estimated centre's z.")
-@click.option("--artifact-radius", type=float, required=True, metavar="MM", help="The sphere's certified radius.")
-@click.option("--stylus-radius", type=float, default=DEFAULTS.stylus_radius, show_default=True, metavar="MM")
-@click.option("--clearance", type=float, default=DEFAULTS.clearance, show_default=True, metavar="MM",
+@click.option("--center-z", type=FINITE, required=True, metavar="MM", help="The estimated centre's z.")
+@click.option("--artifact-radius", type=FINITE, required=True, metavar="MM", help="The sphere's certified radius.")
+@click.option("--stylus-radius", type=FINITE, default=DEFAULTS.stylus_radius, show_default=True, metavar="MM",
+              help="The stylus ball's radius.")
+@click.option("--clearance", type=FINITE, default=DEFAULTS.clearance, show_default=True, metavar="MM",
               help="Each approach starts this far outside the estimated ball: more than the estimate's error.")
-@click.option("--overtravel", type=float, metavar="MM",
+@click.option("--overtravel", type=FINITE, metavar="MM",
               help="How far inside the estimated ball the skip move aims (default: the clearance).")
-@click.option("--feed", type=float, default=DEFAULTS.feed, show_default=True, metavar="MM/MIN",
+@click.option("--feed", type=FINITE, default=DEFAULTS.feed, show_default=True, metavar="MM/MIN",
               help="Probing feed of the skip moves (the calibration's).")
-@click.option("--travel-feed", type=float, default=DEFAULTS.travel_feed, show_default=True, metavar="MM/MIN")
+@click.option("--travel-feed", type=FINITE, default=DEFAULTS.travel_feed, show_default=True, metavar="MM/MIN",
+              help="Feed of the moves near the ball.")
 @program_options
 def command(center_x, center_z, artifact_radius, stylus_radius, clearance, overtravel, feed, travel_feed, tool,
             probe_on, probe_off, program_number, machine, output):
     """Write a FANUC probing program for one round of finding the calibration sphere's centre."""
+    guard([("--machine", machine)], [("-o", output)])
     if not artifact_radius > 0:
         raise OptionError(f"--artifact-radius {artifact_radius:g}: must be positive")
     profile = load(machine) if machine else DEFAULT

@@ -28,10 +28,10 @@ import click
 from ..ballbar_analysis import (CircularTest, Diagnosis, Estimate, centred, circular_test, diagnose, plausibility,
                                 tests)
 from ..ballbar_fit import arc_text
-from ..diagnostics import Location, MeasurementError, Reporter
+from ..diagnostics import Location, MeasurementError, Reporter, UsageError
 from ..measurements.ballbar import BallbarTrace
 from ..plotting import plot_traces
-from .common import POSITIVE, guard
+from .common import BALLBAR, POSITIVE, examples, guard
 
 BOTH_DIRECTIONS = ["bidirectional_circular_deviation_mm", "hysteresis_mm", "squareness_rad", "servo_mismatch_mm",
                    "servo_lag_ms"]
@@ -40,8 +40,13 @@ DIAGNOSIS = ["scaling_x", "scaling_z", "backlash_x_mm", "backlash_z_mm", "square
 DIRECTIONS = ("ccw", "cw")
 
 
-@click.command("ballbar")
-@click.argument("files", nargs=-1, required=True, metavar="FILE...")
+@click.command("ballbar", epilog=examples(
+    "# a whole-circle test in both directions: figures and diagnosis, with a polar plot",
+    "postproc ballbar ccw.csv cw.csv --plot polar.png",
+    "# the same traces as fit takes them; the figures alone, as JSON",
+    "postproc ballbar --ballbar ccw.csv --ballbar cw.csv --no-diagnosis --json"))
+@click.argument("files", nargs=-1, metavar="FILE...")
+@BALLBAR(help="A trace, as fit and compensate take it (the same as FILE).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of the report.")
 @click.option("--plot", metavar="FILE", help="Write a polar plot of the traces (.png or .svg).")
 @click.option("--averaging", type=click.IntRange(min=1), default=6, show_default=True, metavar="N",
@@ -49,11 +54,14 @@ DIRECTIONS = ("ccw", "cw")
 @click.option("--max-deviation", type=POSITIVE, default=1.0, show_default=True,
               metavar="MM", help="A deviation beyond this is not a plausible ballbar reading.")
 @click.option("--no-diagnosis", is_flag=True, help="The ISO figures alone, without the parametric diagnosis.")
-def command(files, as_json, plot, averaging, max_deviation, no_diagnosis):
+def command(files, ballbar, as_json, plot, averaging, max_deviation, no_diagnosis):
     """ISO 230-4 / 13041-6 figures and error diagnosis of ballbar traces: one or several tests, any arc."""
     from ..measurements.registry import ReadContext, read
     from ..plugins import readers
 
+    files = files + ballbar
+    if not files:
+        raise UsageError("no trace was given: postproc ballbar FILE... (or --ballbar FILE, as fit takes them)")
     guard([("FILE", name) for name in files], [("--plot", plot)])
     reporter = Reporter(sys.stderr)
     context = ReadContext(reporter, averaging, max_deviation)

@@ -13,9 +13,12 @@ import json
 import click
 
 from ..budget import Budget, Total, read_budget
+from .common import examples
 
 
-@click.command("budget")
+@click.command("budget", epilog=examples(
+    "postproc budget samples/budget/v40r-budget.toml",
+    "postproc budget lathe3-budget.toml --json > budget.json"))
 @click.argument("file", metavar="FILE.toml")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of the table.")
 def command(file, as_json):

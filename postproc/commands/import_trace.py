@@ -29,7 +29,7 @@ from ..diagnostics import Location, MeasurementError, Reporter, UsageError
 from ..measurements.ballbar import MAGIC, make_trace, raw_samples, repeated_angle
 from ..measurements.csvfile import read_text
 from ..output import STDOUT, write_atomically
-from .common import FINITE, guard
+from .common import FINITE, examples, guard
 
 DELIMITERS = {"comma": ",", "semicolon": ";", "tab": "\t", "space": None}
 
@@ -44,7 +44,11 @@ class Table:
     lines: list[str]
 
 
-@click.command("import-trace")
+@click.command("import-trace", epilog=examples(
+    "# angle and deviation in um, semicolons, decimal commas",
+    "postproc import-trace export.csv --radius 100 --direction ccw --unit um --delimiter semicolon --decimal-comma -o ccw.csv",
+    "# raw deviations in time order, a lathe's 220 deg arc from 200 deg",
+    "postproc import-trace raw.txt --radius 100 --direction cw --start-angle 200 --capture-arc 220 -o cw.csv"))
 @click.argument("file", metavar="FILE")
 @click.option("--radius", type=FINITE, required=True, metavar="MM", help="Nominal bar length.")
 @click.option("--direction", type=click.Choice(["ccw", "cw"]), required=True,

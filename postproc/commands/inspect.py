@@ -25,6 +25,7 @@ import sys
 import click
 import numpy as np
 
+from .. import progress
 from ..diagnostics import EXIT_WOULD_CHANGE, OptionError, Reporter
 from ..figures import figures
 from ..geometry import Profile, segment_of
@@ -34,7 +35,7 @@ from ..plugins import readers
 from ..pretravel import fit_calibration
 from ..probing import FORCE_FLAG, ProbedProfile, probe_profile
 from ..profile import DEFAULT, load
-from .common import FINITE, guard
+from .common import CALIBRATION, FINITE, FROM_LINE, MACHINE, TO_LINE, examples, guard
 
 EXIT_RECUT = EXIT_WOULD_CHANGE  #: as ``--check``: the part would change if the loop goes on
 IN_TOLERANCE, RECUT = "in tolerance", "re-cut with compensation"
@@ -55,15 +56,19 @@ def compensate_command(program: str, probe: str, calibration: str | None, machin
     return shlex.join(parts)
 
 
-@click.command("inspect")
+@click.command("inspect", epilog=examples(
+    "# in a +-5 um band (exit 0), or re-cut (exit 1, with the command that does it)",
+    "postproc inspect part.nc --probe pass1.csv --calibration artifact.csv --band 0.005",
+    "# one profile of the program, as JSON",
+    "postproc inspect part.nc --probe pass1.csv --band 0.005 --from-line 20 --to-line 48 --json"))
 @click.argument("program", default="-")
 @click.option("--probe", "probe_path", required=True, metavar="FILE", help="Probe points measured on the part.")
-@click.option("--calibration", metavar="FILE", help="A probe calibration on an artifact.")
+@CALIBRATION()
 @click.option("--band", type=FINITE, required=True, metavar="MM",
               help="Tolerance: every cleaned deviation must lie within +-MM.")
-@click.option("--from-line", type=int, metavar="L", help="Profile: moves from this source line.")
-@click.option("--to-line", type=int, metavar="L", help="Profile: moves up to this source line.")
-@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
+@FROM_LINE()
+@TO_LINE()
+@MACHINE()
 @click.option("--force", is_flag=True, help="Use the points even though the datum moved.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of the report.")
 def command(program, probe_path, calibration, band, from_line, to_line, machine, force, as_json):
@@ -91,8 +96,7 @@ def command(program, probe_path, calibration, band, from_line, to_line, machine,
     click.echo(_report(result) if not as_json else json.dumps({k: v for k, v in result.items() if k != "summary"},
                                                               indent=2, allow_nan=False))
     if not result["in_tolerance"]:
-        click.echo(f"{name}: {RECUT}: {result['outside']} of {result['points']} points outside +-{band:g} mm",
-                   err=True)
+        progress.inform(f"{name}: {RECUT}: {result['outside']} of {result['points']} points outside +-{band:g} mm")
         sys.exit(EXIT_RECUT)
 
 

@@ -16,13 +16,17 @@ import sys
 
 import click
 
+from .. import progress
 from ..diagnostics import OptionError, Reporter
 from ..output import STDOUT, write_atomically
 from ..probe_printout import probe_data, probe_file_text, read_printout
-from .common import FINITE, guard
+from .common import FINITE, examples, guard
 
 
-@click.command("probe-import")
+@click.command("probe-import", epilog=examples(
+    "# the DPRNT printout of O8100, captured from the control, as a probe file",
+    "postproc probe-import o8100-printout.txt -o pass1.csv",
+    "postproc probe-import o8100-printout.txt --stylus-radius 3 -o pass1.csv"))
 @click.argument("printout")
 @click.option("--stylus-radius", type=FINITE, metavar="MM",
               help="The stylus radius the probe file names (default: the one the program was written for).")
@@ -43,4 +47,4 @@ def command(printout, stylus_radius, repeatability, output):
     write_atomically(output, probe_file_text(data, provenance).encode())
     reporter.close()
     datum = ", datum " + " and ".join(sorted(data.datum_before)) if data.datum_before else ", no datum"
-    click.echo(f"{run.path}: {len(data.centres)} points{datum}", err=True)
+    progress.inform(f"{run.path}: {len(data.centres)} points{datum}")

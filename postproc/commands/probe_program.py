@@ -18,20 +18,22 @@ import sys
 
 import click
 
+from .. import progress
 from ..diagnostics import Location, Reporter, UsageError
 from ..nominal import MATERIAL, nominal, read_program
 from ..output import STDOUT, write_atomically
 from ..probe_cycle import DATUM_SURFACES, Cycle, code_digits, plan, self_check
 from ..profile import DEFAULT, load
-from .common import FINITE, guard
+from .common import FINITE, FROM_LINE, MACHINE, TO_LINE, examples, guard
 
 DEFAULTS = Cycle()
 _PROGRAM_OPTIONS = (
     click.option("--tool", metavar="TNNNN", help="Select the probe with this T code (e.g. T0909)."),
     click.option("--probe-on", metavar="MNN", help="M code that switches the probe on."),
     click.option("--probe-off", metavar="MNN", help="M code that switches the probe off."),
-    click.option("--program-number", type=int, default=DEFAULTS.program_number, show_default=True, metavar="N"),
-    click.option("--machine", metavar="FILE", help="A machine profile (TOML): G-code system, diameter mode, limits."),
+    click.option("--program-number", type=int, default=DEFAULTS.program_number, show_default=True, metavar="N",
+                 help="The O number of the probing program written."),
+    MACHINE(help="A machine profile (TOML): G-code system, diameter mode, limits; without it, the embedded default."),
     click.option("-o", "--output", "output", default=STDOUT, metavar="FILE", help="Write the program here."),
 )
 
@@ -44,22 +46,27 @@ def program_options(command):
     return command
 
 
-@click.command("probe-program")
+@click.command("probe-program", epilog=examples(
+    "# 24 touches along the finishing profile, the probe on T0909, M-codes to switch it",
+    "postproc probe-program part.nc --points 24 --tool T0909 --probe-on M50 --probe-off M51 -o O8100.nc",
+    "# one profile of the program, with a datum on the face",
+    "postproc probe-program part.nc --from-line 20 --to-line 48 --datum-x 20 --datum-z 0 -o O8100.nc"))
 @click.argument("program", default="-")
 @click.option("--points", type=int, default=DEFAULTS.points, show_default=True, metavar="N",
               help="Touches in all, spread over the profile's features.")
 @click.option("--per-feature", type=int, default=DEFAULTS.per_feature, show_default=True, metavar="N",
               help="The fewest touches on each feature (line or arc) with room for them: what omp-feedback and "
                    "tool-offset need to screen a feature.")
-@click.option("--from-line", type=int, metavar="L", help="Profile: moves from this source line.")
-@click.option("--to-line", type=int, metavar="L", help="Profile: moves up to this source line.")
+@FROM_LINE()
+@TO_LINE()
 @click.option("--material", type=click.Choice(MATERIAL), default="axis", show_default=True,
               help="Which side of the profile is material: towards the spindle axis, or left/right of the "
                    "direction of travel.")
 @click.option("--inset", type=FINITE, default=DEFAULTS.inset, show_default=True, metavar="MM",
               help="Keep the touches this far (along the profile) from both ends of every feature; more at a concave "
                    "corner, as the stylus needs.")
-@click.option("--stylus-radius", type=FINITE, default=DEFAULTS.stylus_radius, show_default=True, metavar="MM")
+@click.option("--stylus-radius", type=FINITE, default=DEFAULTS.stylus_radius, show_default=True, metavar="MM",
+              help="The stylus ball's radius: the touch points are offset by it along the normals.")
 @click.option("--clearance", type=FINITE, default=DEFAULTS.clearance, show_default=True, metavar="MM",
               help="Each approach starts this far from the nominal surface.")
 @click.option("--overtravel", type=FINITE, metavar="MM",
@@ -98,9 +105,9 @@ def command(program, points, per_feature, from_line, to_line, material, inset, s
     reporter.close()
     datums = len(planned.touches) - len(planned.points)
     first, last = planned.lines
-    click.echo(f"{name}: probing program O{program_number:04d}: {len(planned.points)} points on lines {first}-{last}"
-               f"{f', {datums} datum touches' if datums else ''}; read its printout with 'postproc probe-import'",
-               err=True)
+    progress.inform(f"{name}: probing program O{program_number:04d}: {len(planned.points)} points on lines "
+                    f"{first}-{last}{f', {datums} datum touches' if datums else ''}; read its printout with "
+                    "'postproc probe-import'")
     for feature, count, (start, end) in zip(planned.features, planned.spread.counts, planned.spread.insets):
-        click.echo(f"  {feature.describe()}: {count} point{'' if count == 1 else 's'}"
-                   + (f", {start:.3f} mm from its start and {end:.3f} mm from its end" if count else ""), err=True)
+        progress.inform(f"  {feature.describe()}: {count} point{'' if count == 1 else 's'}"
+                        + (f", {start:.3f} mm from its start and {end:.3f} mm from its end" if count else ""))

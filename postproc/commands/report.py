@@ -19,22 +19,28 @@ import sys
 
 import click
 
+from .. import progress
 from ..diagnostics import Reporter, UsageError
 from ..output import STDOUT, write_atomically
-from .common import FINITE, POSITIVE, guard
+from .common import (BALLBAR, CALIBRATION, MACHINE, MODEL, OPTION, PLUGIN, POSITIVE, PROBE, TOLERANCE, examples,
+                     guard)
 
 
-@click.command("report")
+@click.command("report", epilog=examples(
+    "# the ballbar test, the model fitted from it and the program it compensates",
+    "postproc report part.nc --plugin parametric --ballbar ccw.csv --ballbar cw.csv -o report.html",
+    "# a saved model's report",
+    "postproc report --model lathe3.json -o lathe3.html"))
 @click.argument("program", required=False, metavar="[PROGRAM]")
 @click.option("-o", "--output", "output", default=STDOUT, metavar="FILE", help="Write the report here (HTML).")
-@click.option("--plugin", "plugins", multiple=True, metavar="NAME", help="A compensator to fit and report, in order.")
-@click.option("--ballbar", multiple=True, metavar="FILE", help="A ballbar trace.")
-@click.option("--probe", multiple=True, metavar="FILE", help="Probe points.")
-@click.option("--calibration", metavar="FILE", help="A probe calibration on an artifact.")
-@click.option("--model", metavar="FILE", help="A saved compensation model.")
-@click.option("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE")
-@click.option("--machine", metavar="FILE", help="A machine profile (TOML).")
-@click.option("--tolerance", type=FINITE, metavar="MM", help="Largest deviation of the emitted path.")
+@PLUGIN(help="A compensator to fit and report, in order ('postproc plugins' lists them).")
+@BALLBAR()
+@PROBE()
+@CALIBRATION()
+@MODEL()
+@OPTION()
+@MACHINE()
+@TOLERANCE()
 @click.option("--band", type=POSITIVE, metavar="MM",
               help="The part's tolerance: the verdict passes when every deviation after compensation lies within "
                    "+-MM of the nominal (default: the tolerance in force).")
@@ -67,7 +73,7 @@ def command(program, output, plugins, ballbar, probe, calibration, model, option
     if output != STDOUT:
         shown = ([document.lead] if document.lead is not None else []) + document.sections
         images = sum(1 for _ in _images(shown))
-        click.echo(f"{output}: report written ({len(shown)} sections, {images} figures)", err=True)
+        progress.inform(f"{output}: report written ({len(shown)} sections, {images} figures)")
 
 
 def _images(sections):

@@ -23,11 +23,11 @@ from ..output import STDOUT, write_atomically
 from ..simulator import ballbar_test, calibrate, cut, generator, inspect, load, nominal, probe_profile, program_test
 from ..simulator.files import calibration_text, cmm_probe_text, probe_text, read_surface, surface_text, trace_text
 from ..simulator.nominal import run_program
-from .common import FINITE, guard
+from .common import FINITE, FROM_LINE, MACHINE, TO_LINE, examples, guard
 
 
 def _machine(function):
-    return click.option("--machine", metavar="FILE", help="A machine profile (TOML) with a [simulation] table.")(function)
+    return MACHINE(help="A machine profile (TOML) with a [simulation] table; without it, a perfect machine.")(function)
 
 
 def _seed(function):
@@ -43,8 +43,8 @@ def _profile_options(function):
     function = click.option("--material", type=click.Choice(MATERIAL), default="axis", show_default=True,
                             help="Which side of the profile is material: towards the spindle axis, or left/right "
                                  "of the direction of travel.")(function)
-    function = click.option("--to-line", type=int, metavar="N", help="Profile: moves up to this source line.")(function)
-    function = click.option("--from-line", type=int, metavar="N", help="Profile: moves from this source line.")(function)
+    function = TO_LINE()(function)
+    function = FROM_LINE()(function)
     return click.argument("program", default="-")(function)
 
 
@@ -75,17 +75,26 @@ def _surface(path, simulation, moves, profile_of, wear):
     return read_surface(path) if path else cut(moves, profile_of, simulation, wear)
 
 
-@click.group("simulate")
+@click.group("simulate", epilog=examples(
+    "postproc simulate ballbar --machine samples/machines/v40r-sim.toml --direction cw -o cw.csv",
+    "postproc simulate probe part.nc --machine samples/machines/v40r-sim.toml -o pass1.csv"))
 def command() -> None:
     """The virtual lathe: ballbar tests, cuts, probing and inspection (docs/methods.md §8)."""
 
 
-@command.command("ballbar")
+@command.command("ballbar", epilog=examples(
+    "# a whole-circle test in both directions on the sample lathe",
+    "postproc simulate ballbar --machine samples/machines/v40r-sim.toml --direction ccw -o ccw.csv",
+    "postproc simulate ballbar --machine samples/machines/v40r-sim.toml --direction cw -o cw.csv",
+    "# a lathe's 220 deg arc, as the instrument's raw readings",
+    "postproc simulate ballbar --machine samples/machines/v40r-sim.toml --start-angle 200 --capture-arc 220 "
+    "--overtravel 2 --form raw -o ccw-raw.csv"))
 @_machine
 @_seed
 @click.option("--direction", type=click.Choice(["ccw", "cw"]), default="ccw", show_default=True,
               help="ccw: the G03 run (theta decreasing); cw: the G02 run.")
-@click.option("--form", type=click.Choice(["processed", "raw"]), default="processed", show_default=True)
+@click.option("--form", type=click.Choice(["processed", "raw"]), default="processed", show_default=True,
+              help="processed: angle and deviation (docs/formats.md §4); raw: the instrument's readings in time order.")
 @click.option("--radius", type=FINITE, metavar="MM", help="Test radius (default: the table's).")
 @click.option("--center-x", type=FINITE, metavar="MM", help="Test centre x (radius mm).")
 @click.option("--center-z", type=FINITE, metavar="MM", help="Test centre z.")
@@ -150,7 +159,9 @@ def _program_ballbar(simulation, profile, program, seed, form, radius, center_x,
     return run, name
 
 
-@command.command("cut")
+@command.command("cut", epilog=examples(
+    "# the surface the sample part's program leaves on the sample lathe",
+    "postproc simulate cut samples/programs/hemishell.nc --machine samples/machines/v40r-sim.toml -o surface.csv"))
 @_profile_options
 @_machine
 @_output
@@ -162,7 +173,10 @@ def cut_command(program, from_line, to_line, material, machine, output):
     write_atomically(output, surface_text(surface, _provenance("cut", machine, program=name)).encode())
 
 
-@command.command("probe")
+@command.command("probe", epilog=examples(
+    "# probe the surface just cut (or one from 'simulate cut'): 24 touches",
+    "postproc simulate probe samples/programs/hemishell.nc --machine samples/machines/v40r-sim.toml --points 24 -o pass1.csv",
+    "postproc simulate probe samples/programs/hemishell.nc --machine samples/machines/v40r-sim.toml --surface surface.csv -o pass1.csv"))
 @_profile_options
 @click.option("--surface", metavar="FILE", help="The surface to probe (from 'simulate cut'); default: cut it now.")
 @click.option("--points", type=int, metavar="N", help="Touches along the profile (default: the table's).")
@@ -188,7 +202,9 @@ def probe(program, from_line, to_line, material, surface, points, inset, per_fea
     write_atomically(output, probe_text(run, _provenance("probe", machine, seed, name)).encode())
 
 
-@command.command("calibrate")
+@command.command("calibrate", epilog=examples(
+    "postproc simulate calibrate --machine samples/machines/v40r-sim.toml -o artifact.csv",
+    "postproc simulate calibrate --machine samples/machines/v40r-sim.toml --step-deg 10 --seed 7 -o artifact.csv"))
 @_machine
 @_seed
 @click.option("--radius", type=FINITE, metavar="MM", help="Artifact radius (default: the table's).")
@@ -211,7 +227,10 @@ def calibrate_command(machine, seed, radius, center_x, center_z, step_deg, outpu
     write_atomically(output, calibration_text(run, _provenance("calibrate", machine, seed)).encode())
 
 
-@command.command("inspect")
+@command.command("inspect", epilog=examples(
+    "# a virtual CMM on the part the program cuts: the four figures",
+    "postproc simulate inspect samples/programs/hemishell.nc --machine samples/machines/v40r-sim.toml",
+    "postproc simulate inspect samples/programs/hemishell.nc --surface surface.csv --json"))
 @_profile_options
 @click.option("--surface", metavar="FILE", help="The surface to inspect (from 'simulate cut'); default: cut it now.")
 @click.option("--points", type=int, metavar="N", help="Points along the profile (default: the table's).")

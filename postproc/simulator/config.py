@@ -299,8 +299,11 @@ def _fields(cls, table: dict, where: str, origin: str, tables: dict | None = Non
         elif key in known and known[key].metadata:
             values[key] = _checked(name, value, known[key].metadata, origin)
         else:
-            choices = ", ".join(sorted(k for k in known if k not in tables and k not in lists))
-            raise OptionError(f"unknown key '{name}' in the machine profile (known here: {choices})", Location(origin))
+            from ..inputs import did_you_mean
+
+            choices = sorted(k for k in known if k not in tables and k not in lists)
+            raise OptionError(f"unknown key '{name}' in the machine profile{did_you_mean(key, choices)} "
+                              f"(known here: {', '.join(choices)})", Location(origin))
     missing = [f.name for f in known.values() if f.metadata and f.metadata["rule"] != OPTIONAL
                and f.default is REQUIRED and f.name not in values]
     if missing:
