@@ -327,3 +327,58 @@ def test_a_plugin_that_hangs_is_stopped_and_named(run, tmp_path):
         assert not target.exists()
     finally:
         manager.unregister(plugin)
+
+
+# ---------------------------------------------------------------------- loading only what a run selects
+
+
+def _fresh(code: str, site: Path | None = None, *args: str) -> subprocess.CompletedProcess:
+    """Python started anew (nothing imported yet), with ``site`` on its path if given."""
+    env = {**os.environ, "PYTHONPATH": str(site)} if site is not None else None
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, env=env, cwd=REPO)
+
+
+def test_each_built_in_entry_point_is_named_after_the_compensator_it_provides():
+    """What lets a run load only the compensators it names: an unloaded built-in entry point's
+    name is the name of its compensator (or it provides none, as the readers' does)."""
+    manager = registry.manager()
+    for plugin, dist in manager.list_plugin_distinfo():
+        if dist.project_name != registry.OWN:
+            continue
+        name = manager.get_name(plugin)
+        provided = [cls.name for impl in manager.hook.postproc_compensators.get_hookimpls()
+                    if impl.plugin is plugin for cls in impl.function() or ()]
+        assert provided in ([], [name]), (name, provided)
+
+
+def test_a_run_loads_only_the_built_in_compensators_it_selects():
+    result = _fresh("import sys; from postproc import plugins; "
+                    "print([item.cls.name for item in plugins.select(['tool-offset', 'parametric'])]); "
+                    "print(sorted(m for m in sys.modules if m.startswith('postproc_plugins.')))")
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines() == ["['tool-offset', 'parametric']",
+                                          "['postproc_plugins.parametric', 'postproc_plugins.tool_offset']"]
+
+
+def _clashing_distribution(site: Path, provides: str) -> None:
+    """A distribution installed as pip leaves one (a dist-info beside its module) whose entry
+    point is named otherwise than the compensator it provides."""
+    (site / "clash_plugin.py").write_text(
+        "from postproc.compensator import Compensator\nfrom postproc.hookspecs import hookimpl\n\n\n"
+        f"class Clash(Compensator):\n    name = {provides!r}\n\n\n"
+        "@hookimpl\ndef postproc_compensators():\n    return [Clash]\n")
+    info = site / "clash_plugin-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: clash-plugin\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text("[postproc]\nclash = clash_plugin\n")
+
+
+@pytest.mark.parametrize("provides", ["iterative", "parametric"])
+def test_a_compensator_name_taken_twice_is_caught_though_only_one_is_selected(tmp_path, provides):
+    """A third-party compensator named like a built-in one: an error whether the built-in one is
+    selected (both load) or not (its entry point's name gives it away, and everything loads)."""
+    _clashing_distribution(tmp_path, provides)
+    result = _fresh("from postproc.cli import main; main()", tmp_path, "compensate", HEMISHELL, "--plugin",
+                    "parametric", "--ballbar", CCW, "--ballbar", CW)
+    assert result.returncode == 5 and result.stdout == ""
+    assert f"two plugins provide a compensator named {provides!r}" in result.stderr
