@@ -390,7 +390,7 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
             _write_report(pipeline, report_file)
         if code:
             if created:
-                _remove_if_empty(out_dir)
+                _remove_if_empty(created)
             sys.exit(code)
         return
     summary = pipeline.compensate_file(inputs[0], output or STDOUT)
@@ -445,32 +445,38 @@ def _workers(jobs: int, programs: int) -> int:
     return workers
 
 
-def _make_directory(path: str) -> bool:
-    """Create ``--out-dir`` (and its parents) if it does not exist, as ``mkdir -p`` does; whether it
-    was created. A file where the folder should be is refused."""
+def _make_directory(path: str) -> list[str]:
+    """Create ``--out-dir`` (and its parents) if it does not exist, as ``mkdir -p`` does; the
+    folders created, the deepest first. A file where the folder should be is refused."""
     if os.path.isdir(path):
-        return False
+        return []
     if os.path.lexists(path):
         raise UsageError(f"--out-dir {path}: exists and is not a directory; give a folder")
+    missing, folder = [], os.path.abspath(path)
+    while not os.path.lexists(folder):
+        missing.append(folder)
+        folder = os.path.dirname(folder)
     try:
         os.makedirs(path)
     except FileExistsError:
         if not os.path.isdir(path):
             raise UsageError(f"--out-dir {path}: exists and is not a directory; give a folder") from None
-        return False
+        return []
     except OSError as exc:
         from .output import explain
 
         raise OutputError(f"cannot create the output folder: {explain(exc)}", Location(path)) from None
-    return True
+    return missing
 
 
-def _remove_if_empty(path: str) -> None:
-    """Take away the folder this run created when no program was written into it."""
-    try:
-        os.rmdir(path)
-    except OSError:
-        pass
+def _remove_if_empty(created: list[str]) -> None:
+    """Take away the folders this run created (the deepest first) when no program was written
+    into them: a failed run leaves the tree as it found it."""
+    for folder in created:
+        try:
+            os.rmdir(folder)
+        except OSError:
+            return
 
 
 def _write_report(pipeline, path: str) -> None:

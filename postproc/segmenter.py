@@ -409,7 +409,7 @@ class Segmenter:
         if hi - lo < 2:
             return 0.0
         u, v = self.u[lo : hi + 1], self.v[lo : hi + 1]
-        if np.ptp(u) == 0.0:
+        if np.ptp(u) < 1e-9:  # a stretch under a nanometre has no curvature to read (and polyfit would be ill-posed)
             return 0.0
         return float(np.polyfit(u, v, 2)[0])
 

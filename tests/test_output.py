@@ -239,6 +239,9 @@ def test_out_dir_made_for_a_run_that_fails_is_taken_away(run, tmp_path):
     folder = tmp_path / "new"
     assert run("compensate", str(bad), "--out-dir", str(folder)).exit_code == 3
     assert not folder.exists()
+    nested = tmp_path / "released" / "2026-11" / "lathe2"  # its parents made for it go too
+    assert run("compensate", str(bad), "--out-dir", str(nested)).exit_code == 3
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["bad.nc"]
 
 
 def test_two_programs_of_one_name_into_one_folder_are_refused(run, part, tmp_path):
