@@ -45,6 +45,7 @@ def magnification_for(largest: float, size: float, share: float = SHARE) -> floa
     wanted = share * size / largest
     if wanted <= 1.0:
         return 1.0
+    wanted *= 1.0 + 1e-9  # a quotient one rounding below a round number (999.9999999999999) is that number
     power = 10.0 ** math.floor(math.log10(wanted))
     return max(step * power for step in (1.0, 2.0, 5.0) if step * power <= wanted)
 

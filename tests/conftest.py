@@ -1,4 +1,10 @@
-"""Shared fixtures: where the corpus is, and a way to run the CLI in-process."""
+"""Shared fixtures: where the corpus is, and a way to run the CLI in-process; hypothesis's profiles.
+
+The property tests run derandomized by default (the ``repeatable`` profile): the suite that
+decides whether a change lands gives the same answer on every run, and a machine shared with
+others cannot fail it on a time limit (no deadline). ``HYPOTHESIS_PROFILE=explore`` draws new
+examples on every run, ten times as many, to hunt for what the fixed ones miss; a failure it
+finds becomes an ``@example`` of its test."""
 
 from __future__ import annotations
 
@@ -8,8 +14,13 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from hypothesis import settings
 
 from postproc.cli import main
+
+settings.register_profile("repeatable", derandomize=True, deadline=None)
+settings.register_profile("explore", max_examples=1000, deadline=None)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLES = REPO / "samples"

@@ -32,10 +32,16 @@ def turning_points(arc: Arc, samples: int = 100_001) -> list[tuple[int, float]]:
 def test_reversals_are_where_the_axes_turn_on_a_circle_and_on_a_spiral(theta0, span, cw, radius, drift):
     """Each reversal within 2e-5 of the arc (the sampling's step, 2 um on a 100 mm arc) of where the axis turns."""
     arc = Arc(0.0, 0.0, radius, theta0, span if cw else -span, radius + drift if drift else None)
-    measured = [t for _, t in turning_points(arc) if 1e-4 < t < 1.0 - 1e-4]
-    stated = [t for t in arc.reversal_params() if 1e-4 < t < 1.0 - 1e-4]
-    assert len(stated) == len(measured), (stated, measured)
-    assert all(abs(a - b) < 2e-5 for a, b in zip(stated, measured))
+    measured = [t for _, t in turning_points(arc)]
+    stated = list(arc.reversal_params())
+
+    def inside(t: float) -> bool:  # a turn at an end may fall either side of it by a sampling step
+        return 2e-4 < t < 1.0 - 2e-4
+
+    for a in filter(inside, stated):
+        assert any(abs(a - b) < 2e-5 for b in measured), (stated, measured)
+    for b in filter(inside, measured):
+        assert any(abs(a - b) < 2e-5 for a in stated), (stated, measured)
 
 
 def test_the_apex_of_a_short_i_k_arc_whose_radius_drifts_is_where_its_r_form_has_it():

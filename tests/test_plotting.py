@@ -8,7 +8,7 @@ import re
 import struct
 
 from click.testing import CliRunner
-from hypothesis import given, strategies as st
+from hypothesis import example, given, strategies as st
 
 from conftest import SAMPLES
 from postproc.cli import main
@@ -102,6 +102,8 @@ def test_the_path_plot_dashes_rapids_and_states_the_magnification(tmp_path):
     assert plain.exit_code == 0 and "correction magnified" not in _svg_text(tmp_path / "nominal.svg")
 
 
+@example(largest=1.0000000000000002e-06, size=1.0, share=0.01)  # log10 of 9999.999... rounds to 4
+@example(largest=1e-05, size=1.0, share=0.01)  # 0.01 / 1e-05 is 999.9999999999999
 @given(largest=st.floats(1e-6, 10.0), size=st.floats(1.0, 2000.0), share=st.floats(0.01, 0.2))
 def test_the_magnification_is_a_round_number_that_keeps_the_correction_in_its_share(largest, size, share):
     magnification = magnification_for(largest, size, share)
