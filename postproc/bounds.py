@@ -31,9 +31,10 @@ def tolerance(value: Any, max_correction: float, name: str = "--tolerance", wher
     if not value > 0:
         raise OptionError(f"{name} {value}: the tolerance must be positive", where)
     if value > MAX_TOLERANCE:
+        meant = (f"did you mean {value:g} um ({name} {value / 1000:g})?" if value / 1000 >= 1e-4 else
+                 f"give at most {MAX_TOLERANCE:g} mm")  # 0.06 um is no tolerance anybody meant
         raise OptionError(f"{name} {value:g}: a tolerance of {value:g} mm ({_um(value)} um) is above "
-                          f"{MAX_TOLERANCE:g} mm, which would let the emitted path stray from the part; did you mean "
-                          f"{value:g} um ({name} {value / 1000:g})?", where)
+                          f"{MAX_TOLERANCE:g} mm, which would let the emitted path stray from the part; {meant}", where)
     if value > max_correction:
         raise OptionError(f"{name} {value:g}: a tolerance above the maximum correction ({max_correction:g} mm) would "
                           f"let the emitted path stray further than any correction moves it; give at most "
@@ -49,6 +50,22 @@ def max_correction(value: Any, name: str = "--max-correction", where: Location |
         raise OptionError(f"{name} {value:g}: {value:g} mm ({_um(value)} um) is above {MAX_CORRECTION:g} mm, beyond "
                           f"any error a compensation corrects; did you mean {value:g} um ({name} {value / 1000:g})?",
                           where)
+    return float(value)
+
+
+MAX_BAND = 1.0  #: mm; the widest band a part is judged against here
+
+
+def bounded(value: Any, name: str, ceiling: float, meaning: str, where: Location | None = None) -> float:
+    """A length in mm that is positive and at most ``ceiling``: a part's band (``--band``), a
+    convergence tolerance. Above the ceiling it is far more often microns typed as millimetres
+    (``--band 5``) than meant, and a verdict judged against it would pass anything."""
+    if not _is_number(value) or not math.isfinite(value) or not value > 0:
+        raise OptionError(f"{name} {value:g}: must be positive (a length in mm)" if _is_number(value) else
+                          f"{name} {value}: must be positive (a length in mm)", where)
+    if value > ceiling:
+        raise OptionError(f"{name} {value:g}: {value:g} mm ({_um(value)} um) is above {ceiling:g} mm, {meaning}; did "
+                          f"you mean {value:g} um ({name} {value / 1000:g})?", where)
     return float(value)
 
 

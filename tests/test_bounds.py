@@ -86,3 +86,20 @@ def test_the_last_check_sees_every_replaced_block(run, monkeypatch):
     assert result.exit_code == 0
     written = int(re.search(r"\(BLOCKS REPLACED \d+ BY (\d+)\)", result.stdout).group(1))
     assert written > 0 and len(set(measured)) == written  # every cut written, each measured once
+
+
+@pytest.mark.parametrize("args", [
+    ("inspect", "{program}", "--probe", "{probe}", "--band", "5"),
+    ("report", "{program}", "--plugin", "parametric", "--ballbar", "{ccw}", "--ballbar", "{cw}", "--band", "1000"),
+    ("artifact-find", "{probe}", "--artifact-radius", "25.4", "--tolerance", "30")])
+def test_a_band_or_a_convergence_in_microns_typed_as_millimetres_asks_did_you_mean(run, tmp_path, args):
+    """--band 5 meant 5 um: judged as 5 mm, a part 17.5 um off passed; a 30 mm convergence
+    tolerance took a round 22 mm off the ball as settled."""
+    names = {"program": HEMISHELL, "probe": str(SAMPLES / "probe" / "hemishell-pass1.csv"),
+             "ccw": str(SAMPLES / "ballbar" / "v40r-100-ccw.csv"), "cw": str(SAMPLES / "ballbar" / "v40r-100-cw.csv")}
+    out = tmp_path / "out"
+    result = run(*(arg.format(**names) for arg in args), "-o", str(out)) if args[0] != "inspect" else \
+        run(*(arg.format(**names) for arg in args))
+    assert result.exit_code == 3 and result.stdout == "" and not out.exists(), result.stderr
+    value = args[-1]
+    assert f"did you mean {value} um" in result.stderr, result.stderr

@@ -18,6 +18,7 @@ import sys
 
 import click
 
+from .. import bounds
 from ..artifact import TOLERANCE, Finding, finding, round_from_touches
 from ..commands.inspect import EXIT_RECUT
 from ..diagnostics import Location, MeasurementError, OptionError, UsageError
@@ -43,9 +44,10 @@ from .common import examples, guard
 def command(rounds, artifact_radius, tolerance, sweep, output):
     """Locate the calibration sphere from rounds of pole and side touches; write its calibration file."""
     guard([("ROUND", name) for name in rounds] + [("--sweep", sweep)], [("-o", output)])
-    for name, value in (("--artifact-radius", artifact_radius), ("--tolerance", tolerance)):
-        if not (math.isfinite(value) and value > 0):
-            raise OptionError(f"{name} {value:g}: must be positive")
+    if not (math.isfinite(artifact_radius) and artifact_radius > 0):
+        raise OptionError(f"--artifact-radius {artifact_radius:g}: must be positive")
+    bounds.bounded(tolerance, "--tolerance", bounds.MAX_TOLERANCE,
+                   "so coarse that a round far off the ball's centre would count as settled")
     if output != STDOUT and sweep is None:
         raise UsageError("-o writes the calibration file, which needs the calibration's touches: give --sweep FILE")
     files = [read_probe(path) for path in rounds]

@@ -25,8 +25,8 @@ import sys
 import click
 import numpy as np
 
-from .. import progress
-from ..diagnostics import EXIT_WOULD_CHANGE, OptionError, Reporter
+from .. import bounds, progress
+from ..diagnostics import EXIT_WOULD_CHANGE, Reporter
 from ..figures import figures
 from ..geometry import Profile, segment_of
 from ..measurements.registry import ReadContext, read as read_measurement
@@ -73,8 +73,7 @@ def compensate_command(program: str, probe: str, calibration: str | None, machin
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of the report.")
 def command(program, probe_path, calibration, band, from_line, to_line, machine, force, as_json):
     """Deviations of probed points from the nominal profile: in tolerance (exit 0) or re-cut (exit 1)."""
-    if not (np.isfinite(band) and band > 0):
-        raise OptionError(f"--band {band:g}: must be positive")
+    bounds.bounded(band, "--band", bounds.MAX_BAND, "wider than any band a compensated part is judged against")
     guard([("PROGRAM", program), ("--probe", probe_path), ("--calibration", calibration), ("--machine", machine)], [])
     profile = load(machine) if machine else DEFAULT
     reporter = Reporter(sys.stderr)

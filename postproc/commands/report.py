@@ -19,7 +19,7 @@ import sys
 
 import click
 
-from .. import progress
+from .. import bounds, progress
 from ..diagnostics import Reporter, UsageError
 from ..output import STDOUT, write_atomically
 from .common import (BALLBAR, CALIBRATION, MACHINE, MODEL, OPTION, PLUGIN, POSITIVE, PROBE, TOLERANCE, examples,
@@ -58,6 +58,8 @@ def command(program, output, plugins, ballbar, probe, calibration, model, option
         raise UsageError("nothing to report on: give a program, measurements or a compensator")
     guard([("PROGRAM", program), ("--calibration", calibration), ("--model", model), ("--machine", machine)]
           + [("--ballbar", name) for name in ballbar] + [("--probe", name) for name in probe], [("-o", output)])
+    if band is not None:
+        bounds.bounded(band, "--band", bounds.MAX_BAND, "wider than any band a compensated part is judged against")
     reporter = Reporter(sys.stderr)
     loaded = None
     if program is not None:
