@@ -7,7 +7,7 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 
 from postproc import ballbar_fit, error_map
-from postproc.ballbar_analysis import Estimate, screen, tests
+from postproc.ballbar_analysis import Estimate, check_saved, screen, tests
 from postproc.compensator import Compensator, Measurements, Option, Piece
 from postproc.diagnostics import Location, MeasurementError, ModelError, SafetyError
 from postproc.figures import figures
@@ -82,6 +82,8 @@ class ErrorMap(Compensator):
         Option("max-uncertainty", float, ballbar_fit.EFFECT_LIMIT_MM,
                "largest 3-sigma (mm) of the backlash, the servo mismatch and the map inside its support", positive=True),
         Option("stock", float, 0.0, "with --probe: how far outside this program's profile the measured part was cut"),
+        Option("residual", float, None, "with --probe: the largest RMS residual of the probed part after the map and a "
+               "rigid motion, mm (default 3 x the probe file's repeatability_mm, or 0.003)", positive=True),
     )
 
     field: error_map.Field
@@ -181,12 +183,32 @@ class ErrorMap(Compensator):
                                        "rotation_rad": float(sigma[2])},
                              "unfixed": list(unfixed), "touches": int(len(points)),
                              "residual_um": figures(residuals).as_dict()}
+        self._check_fits(residuals, motion)
         self._rigid = error_map.rigid(self.field.basis, self.gauge) @ motion
         if unfixed:
             self.context.reporter.warn(
                 f"{self.name}: the probed part's normals cannot fix {', '.join(unfixed)} of the map: "
                 "that stays at the gauge (zero at the first test's centre); probe features facing other ways "
                 "(a face and a diameter) to fix it", Location(self.probe.path))
+
+    def _check_fits(self, residuals: np.ndarray, motion: np.ndarray) -> None:
+        """The touches must be of a part this program cut: after the map and a rigid motion they
+        lie within the probe's repeatability. A model keeps its probe file's touches, and laid
+        on another program (a radius 50 um smaller) they read as a 50 um motion of the machine."""
+        rms = float(np.sqrt(np.mean(np.square(residuals)))) if len(residuals) else 0.0
+        allowed = self.settings["residual"]
+        if allowed is None:
+            allowed = 3.0 * self.probe.repeatability if self.probe.repeatability is not None else 0.003
+        if rms <= allowed:
+            return
+        text = (f"{self.name}: the probed part's touches do not fit this program: after the map and a rigid motion "
+                f"({motion[0] * 1000:+.2f} um in X, {motion[1] * 1000:+.2f} um in Z) an RMS residual of {rms * 1000:.2f} "
+                f"um is left, beyond the {allowed * 1000:.2f} um allowed (--option residual at fit time): were they "
+                "measured on a part this program cut?")
+        if not self.context.force:
+            raise SafetyError(f"{text} (fit the map without --probe for other programs, or --force)",
+                              Location(self.probe.path))
+        self.context.reporter.warn(f"{text}; applied anyway (--force)", Location(self.probe.path))
 
     # -- the correction -----------------------------------------------------------------------------
 
@@ -207,7 +229,8 @@ class ErrorMap(Compensator):
                     f"{self.name}: the move on line {piece.move.line} leaves the region the measurements support by "
                     f"{outside.max():.3f} mm at x {points[first, 0]:.3f}, z {points[first, 1]:.3f} (the hull of the "
                     f"tests' arcs, within x {x0:g} .. {x1:g}, z {z0:g} .. {z1:g} mm); measure there, compensate only the "
-                    "blocks inside it (--region), or --option extrapolate=true")
+                    "blocks inside it (--region), or fit the map with --option extrapolate=true (a saved model "
+                    "keeps the options it was fitted with)")
         field = self.field if self._rigid is None else self.field.shifted(self._rigid)
         e_x, e_z = field.errors(points[:, 0], points[:, 1])
         x_direction = np.repeat(np.array([piece.x_direction for piece in pieces], dtype=float), counts)
@@ -268,8 +291,12 @@ class ErrorMap(Compensator):
                 self.probe, self.notes = placer.probe, placer.notes
         except (KeyError, IndexError, TypeError, ValueError) as exc:
             raise ModelError(f"{self.name}: the saved model is incomplete ({exc.__class__.__name__}: {exc})") from None
-        if not all(np.isfinite([e.value for e in self.parameters.values()])):
-            raise ModelError(f"{self.name}: the saved model has parameters that are not finite numbers")
+        check_saved(self.name, self.parameters)
+        basis = self.field.basis
+        (x0, x1), (z0, z1) = self.support.box()
+        if x0 < basis.knots_x[0] or x1 > basis.knots_x[-1] or z0 < basis.knots_z[0] or z1 > basis.knots_z[-1]:
+            raise ModelError(f"{self.name}: the saved model's support (x {x0:g} .. {x1:g}, z {z0:g} .. {z1:g} mm) "
+                             "reaches beyond its map's knots: the model was edited; fit it again from the traces")
 
     def report(self) -> dict[str, Any]:
         fitted = {name: {"value": e.value, "sigma": e.sigma} for name, e in self.parameters.items()}

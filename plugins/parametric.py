@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from postproc import ballbar_fit
-from postproc.ballbar_analysis import MAX_BACKLASH, MAX_SCALING, Estimate
+from postproc.ballbar_analysis import Estimate, check_saved
 from postproc.compensator import Measurements
 from postproc.diagnostics import ModelError
 from postproc.error_functions import ErrorFunctions
@@ -163,15 +163,7 @@ class Parametric(ErrorFunctions):
             self.joined = {str(axis): str(why) for axis, why in dict(model.get("one_scaling", {})).items()}
         except (KeyError, IndexError, TypeError, ValueError) as exc:
             raise ModelError(f"{self.name}: the saved model is incomplete ({exc.__class__.__name__}: {exc})") from None
-        if not all(np.isfinite([e.value for e in self.parameters.values()])):
-            raise ModelError(f"{self.name}: the saved model has parameters that are not finite numbers")
-        for name, e in self.parameters.items():
-            limit, unit, scale = ((MAX_SCALING, "ppm", 1e6) if name.startswith("scaling") else
-                                  (MAX_BACKLASH, "um", 1e3) if name.startswith("backlash") else (None, "", 1.0))
-            if limit is not None and not abs(e.value) <= limit:
-                raise ModelError(f"{self.name}: the saved model's {name} is {e.value * scale:+.1f} {unit}, beyond the "
-                                 f"{limit * scale:.0f} {unit} that traces are refused above: the model was edited, or "
-                                 "made from traces in another unit; fit it again from the traces")
+        check_saved(self.name, self.parameters)
 
     def report(self) -> dict[str, Any]:
         fitted = {name: {"value": e.value, "sigma": e.sigma} for name, e in self.parameters.items()}

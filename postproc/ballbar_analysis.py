@@ -63,7 +63,7 @@ import numpy as np
 
 from . import ballbar_fit
 from .ballbar_fit import MAX_GAP_DEG, Estimate, arcs_text
-from .diagnostics import Location, MeasurementError
+from .diagnostics import Location, MeasurementError, ModelError
 from .figures import Figures, figures
 from .measurements.ballbar import BallbarTrace
 
@@ -242,6 +242,23 @@ def screen(traces: Sequence[BallbarTrace], reporter, force: bool, who: str = "")
     for text in warnings:
         reporter.warn(f"{prefix}{text}", where)
     return diagnosis
+
+
+def check_saved(compensator: str, parameters: dict[str, Estimate]) -> None:
+    """Hold a saved model's parameters (``scaling_*``, ``backlash_*``: value and 1-sigma, mm
+    and mm/mm) to what its traces were held to: finite, a 1-sigma not negative, a scaling within
+    500 ppm, a backlash within 50 um. A model edited by hand (its SHA-256 made again) or fitted
+    from traces in another unit is refused (ModelError) naming the parameter and the bound."""
+    for name, e in parameters.items():
+        if not (math.isfinite(e.value) and math.isfinite(e.sigma) and e.sigma >= 0.0):
+            raise ModelError(f"{compensator}: the saved model's {name} is {e.value:g} +- {e.sigma:g}: a value and a "
+                             "1-sigma must be finite, the 1-sigma not negative; fit the model again from the traces")
+        limit, unit, scale = ((MAX_SCALING, "ppm", 1e6) if name.startswith("scaling") else
+                              (MAX_BACKLASH, "um", 1e3) if name.startswith("backlash") else (None, "", 1.0))
+        if limit is not None and not abs(e.value) <= limit:
+            raise ModelError(f"{compensator}: the saved model's {name} is {e.value * scale:+.1f} {unit}, beyond the "
+                             f"{limit * scale:.0f} {unit} that traces are refused above: the model was edited, or "
+                             "made from traces in another unit; fit it again from the traces")
 
 
 def plausibility(diagnosis: Diagnosis) -> tuple[list[str], list[str]]:

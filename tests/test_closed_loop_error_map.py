@@ -304,3 +304,24 @@ def test_reml_picks_the_smoothness_the_arcs_support_where_cross_validation_canno
     assert errors[alike].max() > 10.0 * errors[alike].min()
     assert errors[lowest] > 10.0 * error(reml)
     assert error(reml) <= 1.5 * errors.min()
+
+
+def test_a_maps_cmm_touches_laid_on_another_program_are_refused(tmp_path):
+    """A model keeps its CMM touches; on a program that did not cut that part they would read as a
+    motion of the machine (and move every block by it): refused, naming the residual."""
+    bent = lathe(tmp_path, BOWED_OFF_CENTRE)
+    program, lines = shaft(CASES[0], tmp_path)
+    text = Path(program).read_text()
+    taper = next(line for line in text.splitlines() if line.startswith("G01 X") and " Z-" in line)  # a chamfer
+    x = float(taper.split()[1][1:])
+    other = tmp_path / "smaller.nc"  # the first diameter 50 um smaller in radius: not a rigid motion of the part
+    other.write_text(text.replace(taper, taper.replace(f"X{taper.split()[1][1:]}", f"X{x - 0.1:.1f}")))
+    assert other.read_text() != text
+    cmm, model = tmp_path / "cmm.csv", tmp_path / "map.json"
+    cli("simulate", "inspect", program, "--machine", bent["machine"], "--from-line", lines[0], "--to-line", lines[1],
+        "--points", 40, "--inset", 0.5, "--probe-file", cmm)
+    cli("fit", "--plugin", "error-map", *bent["ballbar"], "--probe", cmm, "-o", model)
+    cli("compensate", program, "--model", model, "-o", tmp_path / "same.nc")  # the part it measured: fits
+    refused = cli("compensate", other, "--model", model, "-o", tmp_path / "other.nc", code=4)
+    assert "error-map: the probed part's touches do not fit this program" in refused.stderr
+    assert not (tmp_path / "other.nc").exists()
