@@ -41,6 +41,7 @@ def _reported(command):
 
         try:
             _refuse_empty(kwargs)
+            _say_project_values()
             with session():  # each input read once, whoever needs it again
                 return command(*args, **kwargs)
         except PostprocError as exc:
@@ -69,6 +70,23 @@ def _refuse_empty(values: dict) -> None:
             shown = param.opts[0] if isinstance(param, click.Option) else param.human_readable_name
             raise UsageError(f"{shown} is empty (a shell variable that is not set?): give a value, or leave the "
                              "option out (nothing was written)")
+
+
+def _say_project_values() -> None:
+    """Name the values this run takes from the project file, once on stderr (not with --quiet):
+    a plain ``postproc compensate part.nc`` that applies a model must say where the model came from."""
+    from click.core import ParameterSource
+
+    context = click.get_current_context()
+    project = context.find_root().meta.get(PROJECT)
+    if project is None or not project.path:
+        return
+    taken = [param.opts[0] if isinstance(param, click.Option) else param.name for param in context.command.params
+             if context.get_parameter_source(param.name) is ParameterSource.DEFAULT_MAP]
+    if taken:
+        from .progress import inform
+
+        inform(f"{project.path}: project file: {', '.join(taken)} from it (--no-project ignores it)")
 
 
 def _profile(machine: str | None) -> profiles.MachineProfile:
@@ -518,7 +536,7 @@ def _review(pipeline, name: str, diff: bool) -> bool:
     "# a parametric model from a ballbar test in both directions, with the machine's state",
     "postproc fit --plugin parametric --ballbar ccw.csv --ballbar cw.csv --note 'warmed up 2 h' -o lathe3.json",
     "# a profile model from a probed first pass",
-    "postproc fit --plugin iterative --probe pass1.csv --calibration artifact.csv -o pass1.json",
+    "postproc fit --plugin omp-feedback --probe pass1.csv --calibration artifact.csv -o pass1.json",
     "# then: postproc compensate part.nc --model lathe3.json -o out.nc"))
 @PLUGIN(required=True, help="The compensator to fit ('postproc plugins' lists them).")
 @BALLBAR()

@@ -58,6 +58,9 @@ def test_the_project_file_is_found_from_a_subfolder(shop, run):
     assert "(MODEL LATHE3.JSON)" in stamp and "(TOLERANCE 0.002 MM MODE AUTO)" in stamp
     assert any(line.startswith("(MACHINE LATHE3 ") for line in stamp)
     assert "blocks replaced by" in result.stderr
+    assert result.stderr.splitlines()[0] == (f"{project}: project file: --model, --machine, --tolerance from it "
+                                             "(--no-project ignores it)")
+    assert "project file" not in run("-q", "compensate", HEMISHELL).stderr
 
 
 def test_options_on_the_command_line_override_the_project_file(shop, run):

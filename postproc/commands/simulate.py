@@ -175,8 +175,8 @@ def cut_command(program, from_line, to_line, material, machine, output):
 
 @command.command("probe", epilog=examples(
     "# probe the surface just cut (or one from 'simulate cut'): 24 touches",
-    "postproc simulate probe samples/programs/hemishell.nc --machine samples/machines/v40r-sim.toml --points 24 -o pass1.csv",
-    "postproc simulate probe samples/programs/hemishell.nc --machine samples/machines/v40r-sim.toml --surface surface.csv -o pass1.csv"))
+    "postproc simulate probe samples/programs/hemishell.nc --from-line 10 --to-line 10 --machine samples/machines/v40r-sim.toml --points 24 -o pass1.csv",
+    "postproc simulate probe samples/programs/hemishell.nc --from-line 10 --to-line 10 --machine samples/machines/v40r-sim.toml --surface surface.csv -o pass1.csv"))
 @_profile_options
 @click.option("--surface", metavar="FILE", help="The surface to probe (from 'simulate cut'); default: cut it now.")
 @click.option("--points", type=int, metavar="N", help="Touches along the profile (default: the table's).")
