@@ -31,8 +31,8 @@ def tolerance(value: Any, max_correction: float, name: str = "--tolerance", wher
     if not value > 0:
         raise OptionError(f"{name} {value}: the tolerance must be positive", where)
     if value > MAX_TOLERANCE:
-        meant = (f"did you mean {value:g} um ({name} {value / 1000:g})?" if value / 1000 >= 1e-4 else
-                 f"give at most {MAX_TOLERANCE:g} mm")  # 0.06 um is no tolerance anybody meant
+        meant = (f"did you mean {value:g} um ({name} {value / 1000:g})?" if 1e-4 <= value / 1000 <= MAX_TOLERANCE
+                 else f"give at most {MAX_TOLERANCE:g} mm")  # 0.06 um or 1e9 um is no tolerance anybody meant
         raise OptionError(f"{name} {value:g}: a tolerance of {value:g} mm ({_um(value)} um) is above "
                           f"{MAX_TOLERANCE:g} mm, which would let the emitted path stray from the part; {meant}", where)
     if value > max_correction:

@@ -30,7 +30,11 @@ def test_a_tolerance_is_accepted_exactly_when_it_is_a_sane_length(value, largest
         accepted = False
         assert exc.message.startswith("--tolerance ")
         if math.isfinite(value) and value > bounds.MAX_TOLERANCE:
-            assert f"({value * 1000:g} um)" in exc.message and "did you mean" in exc.message  # both units
+            assert f"({value * 1000:g} um)" in exc.message  # both units
+            # microns typed as millimetres, unless the micron reading is no tolerance either (0.06 um)
+            meant = ("did you mean" if 1e-4 <= value / 1000 <= bounds.MAX_TOLERANCE else
+                     f"give at most {bounds.MAX_TOLERANCE:g} mm")
+            assert meant in exc.message
     assert accepted == sane
 
 
@@ -47,11 +51,17 @@ def test_a_maximum_correction_is_accepted_exactly_when_it_is_at_most_1_mm(value)
     assert accepted == sane
 
 
-@pytest.mark.parametrize("tolerance", ["20", "1e9", "0.06"])
-def test_microns_typed_as_millimetres_ask_did_you_mean_um(run, tolerance):
+@pytest.mark.parametrize("tolerance, said", [("20", "did you mean 20 um (--tolerance 0.02)?"),
+                                              ("1e9", "(1e+12 um) is above 0.05 mm, which would let the emitted "
+                                                      "path stray from the part; give at most 0.05 mm"),
+                                              ("0.06", "(60 um) is above 0.05 mm, which would let the emitted path "
+                                                       "stray from the part; give at most 0.05 mm")])
+def test_microns_typed_as_millimetres_ask_did_you_mean_um(run, tolerance, said):
+    """A micron reading below 0.1 um (0.06) or above the bound (1e9) is no tolerance anybody meant:
+    the bound instead."""
     result = run("compensate", HEMISHELL, *TRACES, "--tolerance", tolerance)
     assert (result.exit_code, result.stdout) == (3, "")
-    assert "did you mean" in result.stderr and " um " in result.stderr
+    assert said in result.stderr, result.stderr
 
 
 def test_the_chord_of_the_hemishell_is_refused_whatever_the_options(run, monkeypatch):
