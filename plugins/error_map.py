@@ -205,10 +205,7 @@ class ErrorMap(Compensator):
                 f"({motion[0] * 1000:+.2f} um in X, {motion[1] * 1000:+.2f} um in Z) an RMS residual of {rms * 1000:.2f} "
                 f"um is left, beyond the {allowed * 1000:.2f} um allowed (--option residual at fit time): were they "
                 "measured on a part this program cut?")
-        if not self.context.force:
-            raise SafetyError(f"{text} (fit the map without --probe for other programs, or --force)",
-                              Location(self.probe.path))
-        self.context.reporter.warn(f"{text}; applied anyway (--force)", Location(self.probe.path))
+        self.context.refuse(text, "fit the map without --probe for other programs", Location(self.probe.path))
 
     # -- the correction -----------------------------------------------------------------------------
 

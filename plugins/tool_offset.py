@@ -7,7 +7,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from postproc.compensator import Option, Piece
-from postproc.diagnostics import FitError, Location, MeasurementError, OptionError, SafetyError
+from postproc.diagnostics import FitError, Location, MeasurementError, OptionError
 from postproc.features import MIN_TOUCHES
 from postproc.figures import figures
 from postproc.fitting import register
@@ -132,10 +132,7 @@ class ToolOffset(ProbeCompensator):
                     f"{fitted.dz * 1000:+.2f} um in Z) a residual of {worst * 1000:.2f} um is left, beyond the "
                     f"{self.residual_allowed * 1000:.2f} um allowed (--option residual): the form is not right, and a "
                     "tool offset would not make it right")
-            if not self.context.force:
-                raise SafetyError(f"{text} (use omp-feedback, or --force to apply the offset anyway)",
-                                  Location(self.probe.path))
-            self.context.reporter.warn(f"{text}; applied anyway (--force)", Location(self.probe.path))
+            self.context.refuse(text, "use omp-feedback", Location(self.probe.path))
         return fitted, used
 
     @property

@@ -18,7 +18,7 @@ from typing import Any, ClassVar, Iterable, Sequence
 
 import numpy as np
 
-from .diagnostics import Location, ModelError, OptionError, Reporter
+from .diagnostics import Location, ModelError, OptionError, Reporter, SafetyError
 from .geometry import Arc, Line
 from .motion import Move
 from .profile import DEFAULT, MachineProfile
@@ -126,6 +126,13 @@ class Context:
     reporter: Reporter = field(default_factory=Reporter)
     tolerance: float = 0.001
     force: bool = False  #: explicit overrides (a failed datum check, an old model...)
+
+    def refuse(self, text: str, remedy: str, where: Location | None = None) -> None:
+        """A result a compensator does not trust: refused for safety (exit 4) with the remedy,
+        or, under ``--force``, a warning that it was applied anyway."""
+        if not self.force:
+            raise SafetyError(f"{text} ({remedy}, or --force)", where)
+        self.reporter.warn(f"{text}; applied anyway (--force)", where)
 
 
 class Compensator:
