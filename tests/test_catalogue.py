@@ -258,8 +258,7 @@ OPTIONS = [
                                "which would let the emitted path stray from the part; did you mean 20 um "
                                "(--tolerance 0.02)?"),
     (["--tolerance", "1e9"], 3, "postproc: error: --tolerance 1e+09: a tolerance of 1e+09 mm (1e+12 um) is above "
-                                "0.05 mm, which would let the emitted path stray from the part; did you mean 1e+09 um "
-                                "(--tolerance 1e+06)?"),
+                                "0.05 mm, which would let the emitted path stray from the part; give at most 0.05 mm"),
     (["--tolerance", "0.05", "--max-correction", "0.01"], 3,
      "postproc: error: --tolerance 0.05: a tolerance above the maximum correction (0.01 mm) would let the emitted path "
      "stray further than any correction moves it; give at most 0.01 mm"),
