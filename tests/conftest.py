@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from postproc.cli import main
+from postproc.cli.main import main
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLES = REPO / "samples"

@@ -5,10 +5,10 @@ from __future__ import annotations
 import dataclasses
 
 from postproc.diagnostics import Reporter
-from postproc.motion import CONTOUR
-from postproc.profile import DEFAULT
-from postproc.program import interpret_source
-from postproc.source import Source
+from postproc.interpret.motion import CONTOUR
+from postproc.machine.profile import DEFAULT
+from postproc.interpret.program import interpret_source
+from postproc.syntax.source import Source
 
 
 def steps(text: str, reporter: Reporter | None = None, **profile):

@@ -121,7 +121,7 @@ def ends(draw) -> str:
 
 @st.composite
 def canonical_lines(draw) -> str:
-    """A block in the canonical form a CAM system writes (see postproc.fastpath): N, G00-G03,
+    """A block in the canonical form a CAM system writes (see postproc.syntax.fastpath): N, G00-G03,
     X Z I K R with a decimal point, F, a simple comment, ``;``, each optional, in that order,
     one space or none between."""
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -12,7 +13,7 @@ import pytest
 from conftest import REPO
 
 BIN = Path(sys.executable).parent
-CONTRACTS = 5  #: the contracts in pyproject.toml's [tool.importlinter]
+CONTRACTS = 9  #: the contracts in pyproject.toml's [tool.importlinter]
 
 
 def _tool(name: str) -> str:
@@ -37,11 +38,11 @@ def test_lint_imports_finds_a_broken_contract(tmp_path):
     segmenter) is reported broken, naming the import."""
     config = tmp_path / "contracts.toml"
     config.write_text('[tool.importlinter]\nroot_packages = ["postproc"]\n\n[[tool.importlinter.contracts]]\n'
-                      'name = "made to break"\ntype = "forbidden"\nsource_modules = ["postproc.rewrite"]\n'
-                      'forbidden_modules = ["postproc.segmenter"]\n')
+                      'name = "made to break"\ntype = "forbidden"\nsource_modules = ["postproc.compensate.rewrite"]\n'
+                      'forbidden_modules = ["postproc.compensate.segmenter"]\n')
     result = _run(_tool("lint-imports"), "--no-cache", "--config", str(config))
     assert result.returncode == 1
-    assert "BROKEN" in result.stdout and "postproc.rewrite -> postproc.segmenter" in result.stdout
+    assert "BROKEN" in result.stdout and "postproc.compensate.rewrite -> postproc.compensate.segmenter" in result.stdout
 
 
 def test_no_dead_code():
@@ -55,3 +56,28 @@ def test_vulture_finds_dead_code(tmp_path):
     result = _run(_tool("vulture"), "module.py", "--min-confidence", "80", cwd=tmp_path)
     assert result.returncode == 3
     assert "unused import 'os'" in result.stdout and "unused variable 'unused'" in result.stdout
+
+
+#: the modules that stay at the top of the package: the API, the errors, and the plugin
+#: contract's documented paths (the map in docs/architecture.md)
+TOP_LEVEL = {"__init__", "__main__", "api", "diagnostics", "compensator", "hookspecs"}
+
+
+def _layers() -> list[str]:
+    contracts = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["importlinter"]["contracts"]
+    (layers,) = [c["layers"] for c in contracts if c["id"] == "engine-layers"]
+    return [name.strip() for layer in layers for name in layer.split("|")]
+
+
+def test_the_package_tree_is_the_map():
+    """Every module is in a package of the map but the few public ones at the top; every package is
+    a layer of the contract and a row of docs/architecture.md, so the map cannot go stale."""
+    package = REPO / "postproc"
+    modules = {path.stem for path in package.glob("*.py")}
+    assert modules == TOP_LEVEL
+    packages = {path.parent.name for path in package.glob("*/__init__.py")} - {"cam"}
+    layered = {name.removeprefix("postproc.") for name in _layers()}
+    assert packages <= layered, packages - layered
+    page = (REPO / "docs" / "architecture.md").read_text()
+    assert [name for name in sorted(packages) if f"| `{name}/` " not in page and f" · `{name}/` " not in page] == []
+

@@ -1,4 +1,4 @@
-"""Finding the calibration sphere (postproc.artifact, docs/methods.md §9.2.1): the circle through
+"""Finding the calibration sphere (postproc.measure.artifact, docs/methods.md §9.2.1): the circle through
 a round's pole and side touches, the rounds iterated on the virtual lathe until the centre stays,
 and what is refused.
 
@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from postproc.artifact import MAX_OFF_PLANE, find, finding, round_from_touches, round_of
+from postproc.measure.artifact import MAX_OFF_PLANE, find, finding, round_from_touches, round_of
 from postproc.diagnostics import MeasurementError
-from postproc.measurements.probe import Touches
-from postproc.pretravel import fit_calibration
-from postproc.measurements.probe import CalibrationRun
+from postproc.measure.readers.probe import Touches
+from postproc.measure.pretravel import fit_calibration
+from postproc.measure.readers.probe import CalibrationRun
 from postproc.simulator import artifact_round, calibrate, generator
 from postproc.simulator.config import from_table
 

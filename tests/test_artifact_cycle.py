@@ -1,4 +1,4 @@
-"""Finding the calibration sphere on the machine (postproc.artifact_cycle, ``artifact-program``,
+"""Finding the calibration sphere on the machine (postproc.onmachine.artifact_cycle, ``artifact-program``,
 ``artifact-find``): each round's program run on an emulated control whose skips the virtual
 lathe latches on an off-plane ball, its printout imported, the rounds iterated through the
 command line until the centre stays, and the calibration written about the found ball.
@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from postproc.diagnostics import EXIT_BAD_INPUT, EXIT_REFUSED, EXIT_USAGE, EXIT_WOULD_CHANGE
-from postproc.measurements.probe import read_calibration
-from postproc.pretravel import fit_calibration
+from postproc.measure.readers.probe import read_calibration
+from postproc.measure.pretravel import fit_calibration
 from postproc.simulator import calibrate, generator
 from postproc.simulator.files import calibration_text
 from postproc.simulator.surface import Circle

@@ -15,10 +15,10 @@ import pytest
 from click.testing import CliRunner
 
 from conftest import SAMPLES
-from postproc.ballbar_analysis import circular_deviation, circular_test, diagnose, predict
-from postproc.cli import main
+from postproc.measure.ballbar_analysis import circular_deviation, circular_test, diagnose, predict
+from postproc.cli.main import main
 from postproc.diagnostics import MeasurementError
-from postproc.measurements.ballbar import read_ballbar
+from postproc.measure.readers.ballbar import read_ballbar
 
 RADIUS = 100.0
 CENTRE = (120.0, -80.0)  #: the test circle's centre in the machine, mm
@@ -201,7 +201,7 @@ ARC = np.arange(-20.0, 200.01, 0.5)  #: a lathe's 220 deg test in XZ (ISO 13041-
 def test_partial_arc_figures_match_a_circle_fitted_to_the_points(tmp_path):
     """G over a partial arc is the width about the least-squares circle of the arc as measured: the
     linearised fit agrees with a free circle fitted to the measured points (Levenberg-Marquardt)."""
-    from postproc.fitting import fit_circle
+    from postproc.geometry.fitting import fit_circle
 
     deviations = SHAPES["ccw"](ARC) + setup(ARC)
     trace = read_ballbar(write_trace(tmp_path / "t.csv", "ccw", deviations, ARC))
@@ -394,7 +394,7 @@ def test_plot_of_another_format_is_a_usage_error(simulated_test, tmp_path):
 
 
 def test_deviation_against_angle_plot(tmp_path, simulated_test):
-    from postproc.plotting import plot_deviation_vs_angle
+    from postproc.report.plotting import plot_deviation_vs_angle
 
     traces = [read_ballbar(path) for path in simulated_test]
     target = tmp_path / "angle.svg"

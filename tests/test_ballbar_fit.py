@@ -1,4 +1,4 @@
-"""postproc.ballbar_fit: the joint fit of error models and set-up centres to any number of traces.
+"""postproc.measure.ballbar_fit: the joint fit of error models and set-up centres to any number of traces.
 
 Exact recovery on noise-free traces of several tests (radii, centres, set-ups of their own),
 the refusals (inseparable, undetermined), the reversal's take-up and the second-order set-up,
@@ -15,9 +15,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from postproc import ballbar_fit
-from postproc.ballbar_analysis import diagnose, model_names
-from postproc.measurements.ballbar import make_trace
+from postproc.measure import ballbar_fit
+from postproc.measure.ballbar_analysis import diagnose, model_names
+from postproc.measure.readers.ballbar import make_trace
 from support import machines
 
 #: a machine: scaling, backlash, squareness, servo mismatch (mm at the feed)

@@ -1,4 +1,4 @@
-"""The tolerance cannot gouge (postproc.bounds, and the rewriter's last check against the
+"""The tolerance cannot gouge (postproc.machine.bounds, and the rewriter's last check against the
 nominal path): the bounds themselves, their "did you mean um?", and the check that holds
 whatever the options let through."""
 
@@ -12,7 +12,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from conftest import SAMPLES
-from postproc import bounds
+from postproc.machine import bounds
 from postproc.diagnostics import OptionError
 
 HEMISHELL = str(SAMPLES / "programs" / "hemishell.nc")
@@ -76,7 +76,7 @@ def test_the_last_check_passes_the_compensations_it_should(run):
 
 def test_the_last_check_sees_every_replaced_block(run, monkeypatch):
     """It runs on each written replacement, and cheaply: one measure per written cut."""
-    from postproc import rewrite
+    from postproc.compensate import rewrite
 
     measured = []
     real = rewrite.within

@@ -9,7 +9,7 @@ import pytest
 from click.testing import CliRunner
 from conftest import SAMPLES
 
-from postproc.budget import read_budget
+from postproc.measure.budget import read_budget
 from postproc.diagnostics import MeasurementError
 
 SMALL = """\
@@ -50,7 +50,7 @@ def budget(tmp_path):
 @pytest.fixture
 def cli():
     """``postproc budget ...`` through the real command line."""
-    from postproc.cli import main
+    from postproc.cli.main import main
 
     def invoke(*args: str):
         return CliRunner().invoke(main, ["budget", *args], catch_exceptions=False)

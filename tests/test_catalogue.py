@@ -368,7 +368,7 @@ def _resigned(data: dict) -> str:
     """A model whose hash matches its (changed) content: what is checked is then the content."""
     import hashlib
 
-    from postproc.models import _canonical
+    from postproc.compensate.models import _canonical
 
     payload = {key: value for key, value in data.items() if key != "sha256"}
     return json.dumps({**payload, "sha256": hashlib.sha256(_canonical(payload)).hexdigest()})

@@ -1,4 +1,4 @@
-"""Help that teaches (postproc.cli, postproc.commands): every command's ``--help`` has an
+"""Help that teaches (postproc.cli.main, postproc.cli): every command's ``--help`` has an
 Examples section whose commands parse, every option says what it does, the names and metavars
 agree across commands, and the shell completes compensator names and their options.
 
@@ -14,7 +14,7 @@ import click
 import pytest
 
 from conftest import REPO
-from postproc.cli import main
+from postproc.cli.main import main
 
 GENERIC = re.compile(r"^(INTEGER|FLOAT|NUMBER|INTEGER RANGE|FLOAT RANGE|PATH|FILENAME|OUTPUT|L)$")
 
@@ -105,7 +105,7 @@ def _complete(args: str, incomplete: str) -> list[str]:
 
 @pytest.mark.parametrize("command", ["compensate", "fit", "path --plot p.png", "report"])
 def test_plugin_names_are_completed(command):
-    from postproc.plugins import compensators
+    from postproc.compensate.registry import compensators
 
     installed = sorted(compensators())
     assert _complete(f"{command} --plugin", "") == installed

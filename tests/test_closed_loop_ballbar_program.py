@@ -21,7 +21,7 @@ import pytest
 from click.testing import CliRunner
 
 from conftest import SAMPLES
-from postproc.cli import main
+from postproc.cli.main import main
 
 MACHINE = str(SAMPLES / "machines" / "v40r-sim.toml")
 CIRCLE = """%

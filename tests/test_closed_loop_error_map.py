@@ -27,7 +27,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from postproc.cli import main
+from postproc.cli.main import main
 from postproc.simulator import Machine, load
 from support.parts import TurnedProfile
 from test_closed_loop_profiles import Inspected
@@ -162,7 +162,7 @@ def test_the_map_finds_the_machines_errors_between_the_arcs_within_its_stated_un
     errors: what the ballbar cannot see is zero there by the gauge (the machine's errors are zero at
     the first test's centre, and no Z error grows with x there)."""
     from postproc.compensator import Context, Measurements
-    from postproc.measurements.ballbar import read_ballbar
+    from postproc.measure.readers.ballbar import read_ballbar
     from postproc_plugins.error_map import ErrorMap
 
     traces = [read_ballbar(path) for path in bowed["ballbar"][1::2]]
@@ -274,8 +274,8 @@ def test_reml_picks_the_smoothness_the_arcs_support_where_cross_validation_canno
     """Over a grid of both weights, fits whose GCV scores lie within 1 % of each other leave maps 0.2 um
     and over 10 um off between the arcs, and GCV's lowest score is a map that follows the circles and
     bends wildly between them; REML's choice is within 1.5 times the grid's best map."""
-    from postproc import ballbar_fit, error_map
-    from postproc.measurements.ballbar import read_ballbar
+    from postproc.measure import ballbar_fit, error_map
+    from postproc.measure.readers.ballbar import read_ballbar
     from postproc_plugins.error_map import OTHERS
 
     traces = [read_ballbar(path) for path in bowed["ballbar"][1::2]]

@@ -19,13 +19,13 @@ import pytest
 from click.testing import CliRunner
 
 from conftest import SAMPLES
-from postproc.cli import main
+from postproc.cli.main import main
 from postproc.compensator import Context, Measurements
 from postproc.diagnostics import ModelError
 from postproc.geometry import segment_of
-from postproc.measurements.ballbar import read_ballbar
-from postproc.motion import ARC, LINE, Move
-from postproc.rewrite import pieces, travel_after
+from postproc.measure.readers.ballbar import read_ballbar
+from postproc.interpret.motion import ARC, LINE, Move
+from postproc.compensate.rewrite import pieces, travel_after
 from postproc.simulator import read_program
 from postproc_plugins.effective_angle import EffectiveAngle
 from postproc_plugins.parametric import Parametric

@@ -18,7 +18,7 @@ import pytest
 from click.testing import CliRunner
 
 from postproc.api import Pipeline
-from postproc.cli import main
+from postproc.cli.main import main
 from postproc.diagnostics import EXIT_BAD_INPUT, EXIT_REFUSED
 from support.parts import SHAFT
 

@@ -25,9 +25,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from postproc.cli import main
-from postproc.features import features
-from postproc.figures import figures
+from postproc.cli.main import main
+from postproc.measure.features import features
+from postproc.measure.figures import figures
 from postproc.simulator import cut, load, nominal, read_program
 from postproc.simulator.nominal import run_program
 from postproc.simulator.cmm import REACH

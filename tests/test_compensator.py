@@ -1,4 +1,4 @@
-"""The compensator contract (postproc/compensator.py) and the public helpers plugins build on:
+"""The compensator contract (postproc/compensate/compensator.py) and the public helpers plugins build on:
 what a plugin sees, it can load without the engine."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import sys
 from conftest import REPO
 
 #: The engine: what reads, interprets, plans and writes programs. A plugin never needs it.
-ENGINE = ("postproc.rewrite", "postproc.segmenter", "postproc.interpreter", "postproc.emitter", "postproc.reader",
-          "postproc.fastpath", "postproc.pipeline", "postproc.syntax", "postproc.corners", "postproc.macro")
+ENGINE = ("postproc.compensate.rewrite", "postproc.compensate.segmenter", "postproc.interpret.interpreter", "postproc.compensate.emitter", "postproc.syntax.reader",
+          "postproc.syntax.fastpath", "postproc.compensate.pipeline", "postproc.syntax.grammar", "postproc.interpret.corners", "postproc.syntax.macro")
 
 LOADED = """
 import json, sys
@@ -37,7 +37,7 @@ def test_contract_and_every_built_in_plugin_load_without_the_engine():
 
 def test_piece_is_the_contracts_own():
     """The engine takes the contract's Piece; it does not define one of its own."""
-    from postproc import compensator, rewrite
+    from postproc.compensate import compensator, rewrite
 
     assert rewrite.Piece is compensator.Piece
-    assert compensator.Piece.__module__ == "postproc.compensator"
+    assert compensator.Piece.__module__ == "postproc.compensate.compensator"

@@ -80,7 +80,7 @@ def model(tmp_path_factory):
     """A parametric model fitted from the bundled ballbar traces (ccw and cw, 100 mm)."""
     from click.testing import CliRunner
 
-    from postproc.cli import main
+    from postproc.cli.main import main
 
     path = tmp_path_factory.mktemp("model") / "m.json"
     result = CliRunner().invoke(main, ["fit", *MODEL_INPUTS, "-o", str(path)], catch_exceptions=False)
@@ -130,10 +130,10 @@ def test_every_arc_block_is_placed_or_said(path, expected):
     passes through uninterpreted (with its warning): never nothing at all."""
     import dataclasses
 
-    from postproc.gcodes import G02, G03
-    from postproc.profile import DEFAULT
-    from postproc.program import interpret_source
-    from postproc.source import Source
+    from postproc.interpret.gcodes import G02, G03
+    from postproc.machine.profile import DEFAULT
+    from postproc.interpret.program import interpret_source
+    from postproc.syntax.source import Source
 
     profile = dataclasses.replace(DEFAULT, **expected.get("machine", {}))
     reporter = Reporter()

@@ -22,7 +22,7 @@ import click
 import pytest
 
 from conftest import REPO
-from postproc import hookspecs
+from postproc.compensate import hookspecs
 
 DOCS = REPO / "docs"
 PRUNED = {"__pycache__", "build", "out", "corpus"}  #: folders that hold no pages or code of the project
@@ -255,7 +255,7 @@ def _section(text: str, number: str) -> str:
 
 
 def test_every_command_has_a_section_in_formats_md():
-    from postproc.cli import main
+    from postproc.cli.main import main
 
     context = click.Context(main)
     text = _formats()
@@ -270,7 +270,7 @@ def test_every_command_has_a_section_in_formats_md():
 
 
 def test_every_compensator_and_option_is_in_formats_md():
-    from postproc.plugins import compensators
+    from postproc.compensate.registry import compensators
 
     text = _formats()
     for name, item in compensators().items():
@@ -282,7 +282,7 @@ def test_every_compensator_and_option_is_in_formats_md():
 
 
 def test_every_machine_profile_key_is_in_formats_md():
-    from postproc.profile import MachineProfile
+    from postproc.machine.profile import MachineProfile
 
     body = _section(_formats(), "15")
     for field in dataclasses.fields(MachineProfile):
@@ -291,10 +291,10 @@ def test_every_machine_profile_key_is_in_formats_md():
 
 
 @pytest.mark.parametrize("number, keys", [
-    ("4", "postproc.measurements.ballbar:KEYS"),
-    ("5", "postproc.measurements.probe:PROBE_KEYS"),
-    ("6", "postproc.measurements.probe:CALIBRATION_KEYS"),
-    ("3", "postproc.measurements.csvfile:COMMON_KEYS"),
+    ("4", "postproc.measure.readers.ballbar:KEYS"),
+    ("5", "postproc.measure.readers.probe:PROBE_KEYS"),
+    ("6", "postproc.measure.readers.probe:CALIBRATION_KEYS"),
+    ("3", "postproc.measure.readers.csvfile:COMMON_KEYS"),
 ])
 def test_every_measurement_header_key_is_in_its_section(number, keys):
     import importlib
@@ -319,7 +319,7 @@ def test_the_reader_example_in_hooks_md_reads_its_export(tmp_path, run):
     import importlib.util
     import re
 
-    from postproc import plugins as registry
+    from postproc.compensate import registry
     from postproc.simulator import ballbar_test, generator, load
 
     text = (REPO / "docs" / "hooks.md").read_text()

@@ -5,12 +5,12 @@ from __future__ import annotations
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from postproc import gcodes as G
-from postproc.blocks import Block
-from postproc.emitter import Style, Writer
-from postproc.fastpath import detail_of_ordinary, read_ordinary
-from postproc.resolution import Grid
-from postproc.segmenter import Cut
+from postproc.interpret import gcodes as G
+from postproc.syntax.blocks import Block
+from postproc.compensate.emitter import Style, Writer
+from postproc.syntax.fastpath import detail_of_ordinary, read_ordinary
+from postproc.machine.resolution import Grid
+from postproc.compensate.segmenter import Cut
 from strategies import canonical_lines
 
 CUTS = (

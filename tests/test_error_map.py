@@ -1,4 +1,4 @@
-"""postproc.error_map: the basis, its penalties, the support, the regularised fit and what a ballbar cannot see."""
+"""postproc.measure.error_map: the basis, its penalties, the support, the regularised fit and what a ballbar cannot see."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from postproc import ballbar_fit, error_map
+from postproc.measure import ballbar_fit, error_map
 from postproc.compensator import Context, Measurements
 from postproc.diagnostics import ModelError
-from postproc.measurements.ballbar import BallbarTrace
+from postproc.measure.readers.ballbar import BallbarTrace
 from postproc_plugins.error_map import ErrorMap, axis_directions
 
 BOX = ((-100.0, 100.0), (-95.0, 100.0))

@@ -1,4 +1,4 @@
-"""The distance of a written cut from the nominal path (postproc.farthest): exact where it is
+"""The distance of a written cut from the nominal path (postproc.compensate.farthest): exact where it is
 computed in closed form, checked against dense sampling of both the cut and the nominal."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from postproc.farthest import farthest
+from postproc.compensate.farthest import farthest
 from postproc.geometry import Arc, Line
-from postproc.segmenter import Cut
+from postproc.compensate.segmenter import Cut
 
 SPACING = 0.01  #: mm between the samples of the oracle
 coordinate = st.floats(-20, 20, allow_nan=False)
@@ -89,7 +89,7 @@ def cuts_along(draw, arc: Arc):
 @settings(max_examples=int(os.environ.get("POSTPROC_FUZZ_EXAMPLES", "300")), deadline=None)
 @given(st.data())
 def test_the_quick_bound_along_an_arc_is_never_below_the_exact_distance(data):
-    from postproc.farthest import _along_arc, within
+    from postproc.compensate.farthest import _along_arc, within
 
     arc = data.draw(nominals().filter(lambda n: isinstance(n, Arc)))
     cut = data.draw(cuts_along(arc))

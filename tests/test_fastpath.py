@@ -13,9 +13,9 @@ from hypothesis import strategies as st
 
 from conftest import corpus
 from postproc.diagnostics import ProgramSyntaxError
-from postproc.fastpath import read_ordinary
-from postproc.source import Source
-from postproc.syntax import parse_block
+from postproc.syntax.fastpath import read_ordinary
+from postproc.syntax.source import Source
+from postproc.syntax.grammar import parse_block
 from strategies import comments, lines, words
 
 

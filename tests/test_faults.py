@@ -15,12 +15,12 @@ from pathlib import Path
 import pytest
 
 from conftest import REPO
-from postproc.output import PARTIAL, Spool, write_atomically
+from postproc.files.output import PARTIAL, Spool, write_atomically
 
 sys.path.insert(0, str(REPO / "benchmarks"))
 from programs import lathe_program  # noqa: E402
 
-COMMAND = [sys.executable, "-c", "from postproc.cli import main; main()"]
+COMMAND = [sys.executable, "-c", "from postproc.cli.main import main; main()"]
 
 
 def test_a_run_killed_mid_write_leaves_the_old_output_and_nothing_else(tmp_path):

@@ -1,4 +1,4 @@
-"""The features of a profile (postproc.features): lines and arcs between corners, and where to touch them."""
+"""The features of a profile (postproc.measure.features): lines and arcs between corners, and where to touch them."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from postproc.diagnostics import SpreadError
-from postproc.features import MIN_TOUCHES, corner_room, features, owners, spread
+from postproc.measure.features import MIN_TOUCHES, corner_room, features, owners, spread
 from postproc.geometry import Arc, Line, Profile
 
 # A shaft's outside, cut towards -Z, material towards the axis: chamfer, diameter in two blocks, a concave

@@ -27,8 +27,8 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from postproc.cli import main
-from postproc.models import _canonical
+from postproc.cli.main import main
+from postproc.compensate.models import _canonical
 
 from conftest import SAMPLES, corpus
 from strategies import lathe_programs, lines

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from interpret import moves, steps
-from postproc import gcodes as G
+from postproc.interpret import gcodes as G
 from postproc.diagnostics import Reporter
 
 # (system A, system B, system C) spellings of each code in the control's list; None where a

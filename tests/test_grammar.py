@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from postproc import macro
-from postproc.blocks import BLANK, BLOCK, HEADER, TAPE
+from postproc.syntax import macro
+from postproc.syntax.blocks import BLANK, BLOCK, HEADER, TAPE
 from postproc.diagnostics import ProgramSyntaxError
-from postproc.syntax import parse_block
+from postproc.syntax.grammar import parse_block
 
 
 def parse(text: str):
@@ -195,7 +195,7 @@ def test_lossless_tokens_rebuild_the_line():
 def _tokens(text):
     from lark import Token
 
-    from postproc.syntax import parser
+    from postproc.syntax.grammar import parser
 
     tree = parser().parse(text)
     return sorted(tree.scan_values(lambda v: isinstance(v, Token)), key=lambda t: t.start_pos)

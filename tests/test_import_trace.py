@@ -15,7 +15,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from postproc.measurements.ballbar import read_ballbar
+from postproc.measure.readers.ballbar import read_ballbar
 
 ARC = np.arange(-20.0, 200.01, 0.5)  #: a lathe's 220 deg capture
 

@@ -1,4 +1,4 @@
-"""Every input read exactly once, and bounded (postproc.inputs, postproc.source): pipes,
+"""Every input read exactly once, and bounded (postproc.files.inputs, postproc.syntax.source): pipes,
 FIFOs, standard input and regular files alike; devices that never end get a clear error."""
 
 from __future__ import annotations
@@ -12,14 +12,14 @@ import threading
 import pytest
 
 from conftest import SAMPLES
-from postproc import inputs
+from postproc.files import inputs
 from postproc.diagnostics import MeasurementError
 
 HEMISHELL = SAMPLES / "programs" / "hemishell.nc"
 CCW, CW = (SAMPLES / "ballbar" / f"v40r-100-{d}.csv" for d in ("ccw", "cw"))
 MACHINE = SAMPLES / "machines" / "v40r-sim.toml"
-POSTPROC = f"{sys.executable} -c 'from postproc.cli import main; main()'"
-COMMAND = [sys.executable, "-c", "from postproc.cli import main; main()"]
+POSTPROC = f"{sys.executable} -c 'from postproc.cli.main import main; main()'"
+COMMAND = [sys.executable, "-c", "from postproc.cli.main import main; main()"]
 
 
 def _bash(script: str, folder) -> subprocess.CompletedProcess:
@@ -91,8 +91,9 @@ def test_binary_data_on_stdin_is_stopped_at_its_first_nul(run):
 
 @pytest.mark.parametrize("option", ["--ballbar", "--model", "--machine"])
 def test_a_device_as_measurement_model_or_profile_is_bounded(run, option, monkeypatch):
-    from postproc import models, profile
-    from postproc.measurements import csvfile
+    from postproc.compensate import models
+    from postproc.machine import profile
+    from postproc.measure.readers import csvfile
 
     for module in (csvfile, models, profile):
         monkeypatch.setattr(module, "MAX_BYTES", 4096)  # read /dev/zero to a small bound, quickly
@@ -121,7 +122,7 @@ def test_within_a_session_a_file_is_read_once(tmp_path):
 
 def test_a_program_changed_while_it_is_compensated_does_not_matter(tmp_path):
     """The program is copied once; what is compensated is what was read."""
-    from postproc.source import Source
+    from postproc.syntax.source import Source
 
     path = tmp_path / "p.nc"
     path.write_bytes(HEMISHELL.read_bytes())

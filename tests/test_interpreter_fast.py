@@ -15,9 +15,9 @@ from hypothesis import HealthCheck, given, settings
 
 from conftest import SAMPLES, corpus
 from postproc.diagnostics import PostprocError, Reporter
-from postproc.interpreter import Interpreter
-from postproc.reader import read_blocks
-from postproc.source import Source
+from postproc.interpret.interpreter import Interpreter
+from postproc.syntax.reader import read_blocks
+from postproc.syntax.source import Source
 from strategies import lathe_programs
 from support.generate import program
 
@@ -104,7 +104,7 @@ def test_edge_cases(text):
 
 def test_canonical_form_profiles():
     """Diameter or radius X, calculator input: the canonical route follows the profile."""
-    from postproc.profile import DEFAULT
+    from postproc.machine.profile import DEFAULT
     from dataclasses import replace
 
     text = "G00 X10. Z1.\nG01 X20. Z-1. F.1\nG02 X22. Z-2. R2.\nG00 X30.\n"

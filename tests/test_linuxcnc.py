@@ -33,7 +33,7 @@ import pytest
 from click.testing import CliRunner
 
 from conftest import corpus, expectations
-from postproc.cli import main
+from postproc.cli.main import main
 from support.generate import program
 from support.linuxcnc import Move, RS274Error, rs274_available, run_rs274, to_linuxcnc
 

@@ -23,7 +23,7 @@ LAUNCH = str(REPO / "benchmarks/launch.py")
 def _peak_mb(program, out) -> float:
     """Peak RSS of one compensate run, measured by the small launcher (a child forked from
     this large test process would count this process's memory too)."""
-    command = [sys.executable, LAUNCH, sys.executable, "-c", "from postproc.cli import main; main()",
+    command = [sys.executable, LAUNCH, sys.executable, "-c", "from postproc.cli.main import main; main()",
                "compensate", str(program), "--plugin", "parametric", "--option", "extrapolate=true",
                "--ballbar", CCW, "--ballbar", CW, "--region", "L1-L3000", "-o", str(out)]
     result = subprocess.run(command, capture_output=True, text=True, timeout=600)

@@ -52,7 +52,7 @@ def test_an_old_model_or_one_for_another_machine_warns(run, tmp_path):
     import datetime as dt
     import hashlib
 
-    from postproc.models import _canonical
+    from postproc.compensate.models import _canonical
 
     model = tmp_path / "model.json"
     run(*FIT, "-o", str(model))
@@ -100,7 +100,7 @@ def test_a_parametric_model_beyond_what_traces_may_read_is_refused(run, tmp_path
     held to the bounds its traces are: 500 ppm of scaling, 50 um of backlash."""
     import hashlib
 
-    from postproc.models import _canonical
+    from postproc.compensate.models import _canonical
 
     model = tmp_path / "model.json"
     assert run("fit", "--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW, "-o", str(model)).exit_code == 0

@@ -1,4 +1,4 @@
-"""No file of the user's is destroyed (postproc.output): links, devices, FIFOs, read-only files,
+"""No file of the user's is destroyed (postproc.files.output): links, devices, FIFOs, read-only files,
 an output that is an input, two outputs in one, two programs of one name in one folder."""
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from conftest import SAMPLES
 HEMISHELL = SAMPLES / "programs" / "hemishell.nc"
 CCW, CW = (SAMPLES / "ballbar" / f"v40r-100-{d}.csv" for d in ("ccw", "cw"))
 TRACES = ["--plugin", "parametric", "--ballbar", str(CCW), "--ballbar", str(CW)]
-COMMAND = [sys.executable, "-c", "from postproc.cli import main; main()"]
+COMMAND = [sys.executable, "-c", "from postproc.cli.main import main; main()"]
 
 
 @pytest.fixture

@@ -58,9 +58,9 @@ def test_a_clone_that_was_never_installed_imports_and_finds_its_grammar():
     code = UNINSTALLED + (
         "import importlib.util, runpy\n"
         "assert importlib.util.find_spec('postproc.grammars') is None\n"
-        "import postproc, postproc.syntax\n"
+        "import postproc, postproc.syntax.grammar\n"
         "print(postproc.__file__)\n"
-        "assert postproc.syntax.grammar_text() == open('grammars/fanuc.lark', encoding='utf-8').read()\n"
+        "assert postproc.syntax.grammar.grammar_text() == open('grammars/fanuc.lark', encoding='utf-8').read()\n"
         "sys.argv = ['postproc', 'check', 'samples/programs/hemishell.nc']\n"
         "runpy.run_module('postproc', run_name='__main__')\n")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO)
@@ -92,7 +92,7 @@ def test_the_wheel_holds_the_grammar_the_plugins_and_their_entry_points(wheel):
     assert "postproc/__main__.py" in names
     assert {f"postproc_plugins/{path.name}" for path in (REPO / "plugins").glob("*.py")} <= names
     assert {name.split("/")[0] for name in names if ".dist-info/" not in name} == {"postproc", "postproc_plugins"}
-    assert "postproc = postproc.cli:main" in entry_points
+    assert "postproc = postproc.cli.main:main" in entry_points
     for name in BUILT_IN:
         assert f"{name} = postproc_plugins." in entry_points
 
@@ -116,7 +116,7 @@ def test_the_installed_wheel_runs_from_anywhere(wheel, tmp_path, run):
     def postproc(*args: str) -> subprocess.CompletedProcess:
         return subprocess.run([venv / "bin" / "postproc", *args], capture_output=True, text=True, cwd=elsewhere, env=env)
 
-    where = subprocess.run([python, "-c", "import postproc.syntax as s; print(s.__file__); s.parser()"],
+    where = subprocess.run([python, "-c", "import postproc.syntax.grammar as s; print(s.__file__); s.parser()"],
                            capture_output=True, text=True, cwd=elsewhere, env=env)
     assert where.returncode == 0, where.stderr
     assert Path(where.stdout.strip()).is_relative_to(site)

@@ -1,4 +1,4 @@
-"""One compensation run (postproc.pipeline): the provenance header and what it records, double
+"""One compensation run (postproc.compensate.pipeline): the provenance header and what it records, double
 compensation seen wherever its mark stands, nothing done said, a model's measurement time."""
 
 from __future__ import annotations
@@ -115,7 +115,7 @@ def test_without_the_key_the_files_modification_time_counts(run, tmp_path):
 
 
 def test_a_pipe_without_the_key_is_measured_now_with_a_warning_never_the_epoch(tmp_path):
-    command = (f"{sys.executable} -c 'from postproc.cli import main; main()' fit --plugin parametric "
+    command = (f"{sys.executable} -c 'from postproc.cli.main import main; main()' fit --plugin parametric "
                f"--ballbar <(cat {CCW}) --ballbar <(cat {CW}) -o m.json")
     result = subprocess.run(["bash", "-c", command], cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr

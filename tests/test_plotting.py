@@ -1,4 +1,4 @@
-"""postproc.plotting and postproc.pathplot: the polar plot as shops know it, path plots as
+"""postproc.report.plotting and postproc.report.pathplot: the polar plot as shops know it, path plots as
 programmers read them."""
 
 from __future__ import annotations
@@ -11,10 +11,10 @@ from click.testing import CliRunner
 from hypothesis import given, strategies as st
 
 from conftest import SAMPLES
-from postproc.cli import main
-from postproc.measurements.ballbar import read_ballbar
-from postproc.pathplot import magnification_for
-from postproc.plotting import BAND, plot_traces
+from postproc.cli.main import main
+from postproc.measure.readers.ballbar import read_ballbar
+from postproc.report.pathplot import magnification_for
+from postproc.report.plotting import BAND, plot_traces
 
 CCW = SAMPLES / "ballbar" / "v40r-100-ccw.csv"
 CW = SAMPLES / "ballbar" / "v40r-100-cw.csv"

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from conftest import REPO, SAMPLES
-from postproc import hookspecs
-from postproc import plugins as registry
+from postproc.compensate import hookspecs
+from postproc.compensate import registry
 from postproc.compensator import Compensator
 
 HEMISHELL = str(SAMPLES / "programs" / "hemishell.nc")
@@ -163,7 +163,7 @@ def shop_plugin(tmp_path_factory) -> Path:
 
 def _postproc(site: Path, *args: str) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(site)}
-    return subprocess.run([sys.executable, "-c", "from postproc.cli import main; main()", *args],
+    return subprocess.run([sys.executable, "-c", "from postproc.cli.main import main; main()", *args],
                           capture_output=True, text=True, env=env, cwd=REPO)
 
 
@@ -190,8 +190,8 @@ class _Reader:
 
     @hookspecs.hookimpl
     def postproc_measurement_readers(self):
-        from postproc.measurements.ballbar import read_ballbar
-        from postproc.measurements.registry import MeasurementReader
+        from postproc.measure.readers.ballbar import read_ballbar
+        from postproc.measure.readers.registry import MeasurementReader
 
         def read(path, context):
             with open(path) as handle:
@@ -221,9 +221,9 @@ def test_postproc_measurement_readers_come_before_the_built_in_ones(run, tmp_pat
 def _named_reader(name: str, magic: str, **order):
     """A plugin object with one ballbar reader that accepts files whose first line is ``magic``
     and reads them as postproc traces, marked ``tryfirst``/``trylast`` as ``order`` says."""
-    from postproc.measurements.ballbar import read_ballbar
-    from postproc.measurements.csvfile import snapshot
-    from postproc.measurements.registry import MeasurementReader, first_line
+    from postproc.measure.readers.ballbar import read_ballbar
+    from postproc.measure.readers.csvfile import snapshot
+    from postproc.measure.readers.registry import MeasurementReader, first_line
 
     def read(path, context):
         text = snapshot(path).data.decode().replace(magic, "# postproc ballbar 1", 1)
@@ -352,7 +352,7 @@ def test_each_built_in_entry_point_is_named_after_the_compensator_it_provides():
 
 
 def test_a_run_loads_only_the_built_in_compensators_it_selects():
-    result = _fresh("import sys; from postproc import plugins; "
+    result = _fresh("import sys; from postproc.compensate import registry as plugins; "
                     "print([item.cls.name for item in plugins.select(['tool-offset', 'parametric'])]); "
                     "print(sorted(m for m in sys.modules if m.startswith('postproc_plugins.')))")
     assert result.returncode == 0, result.stderr
@@ -378,7 +378,7 @@ def test_a_compensator_name_taken_twice_is_caught_though_only_one_is_selected(tm
     """A third-party compensator named like a built-in one: an error whether the built-in one is
     selected (both load) or not (its entry point's name gives it away, and everything loads)."""
     _clashing_distribution(tmp_path, provides)
-    result = _fresh("from postproc.cli import main; main()", tmp_path, "compensate", HEMISHELL, "--plugin",
+    result = _fresh("from postproc.cli.main import main; main()", tmp_path, "compensate", HEMISHELL, "--plugin",
                     "parametric", "--ballbar", CCW, "--ballbar", CW)
     assert result.returncode == 5 and result.stdout == ""
     assert f"two plugins provide a compensator named {provides!r}" in result.stderr

@@ -18,17 +18,17 @@ import numpy as np
 import pytest
 
 from postproc.diagnostics import EXIT_BAD_INPUT, EXIT_REFUSED, EXIT_USAGE, EXIT_WOULD_CHANGE
-from postproc.features import owners
+from postproc.measure.features import owners
 from postproc.geometry import Profile, segment_of
-from postproc.macro import Assignment, IfThen, Output, evaluate
-from postproc.measurements.probe import read_probe
-from postproc.probe_cycle import Cycle, plan, stations
-from postproc.probe_route import Surfaces
-from postproc.program import interpret_source
+from postproc.syntax.macro import Assignment, IfThen, Output, evaluate
+from postproc.measure.readers.probe import read_probe
+from postproc.onmachine.probe_cycle import Cycle, plan, stations
+from postproc.onmachine.probe_route import Surfaces
+from postproc.interpret.program import interpret_source
 from postproc.simulator import cut, generator, load, nominal, read_program
 from postproc.simulator.surface import Plane
 from postproc.simulator.touch import Touch as SimTouch, run as sim_run
-from postproc.source import Source
+from postproc.syntax.source import Source
 from support.parts import TurnedProfile
 
 REPO = Path(__file__).resolve().parents[1]

@@ -16,10 +16,10 @@ from hypothesis import strategies as st
 
 from postproc.diagnostics import EXIT_REFUSED, MeasurementError, Reporter, SafetyError
 from postproc.geometry import Arc, Line, Profile
-from postproc.measurements.probe import read_calibration, read_probe
-from postproc.pretravel import CalibrationModel, fit_calibration
-from postproc.probing import check_datum, probe_profile, profile_deviations, touched_points
-from postproc.screening import screen
+from postproc.measure.readers.probe import read_calibration, read_probe
+from postproc.measure.pretravel import CalibrationModel, fit_calibration
+from postproc.measure.probing import check_datum, probe_profile, profile_deviations, touched_points
+from postproc.measure.screening import screen
 
 STYLUS = 3.0
 ARTIFACT_R = 25.4

@@ -1,4 +1,4 @@
-"""Progress on a terminal, none on a pipe, and ``--quiet`` (postproc.progress).
+"""Progress on a terminal, none on a pipe, and ``--quiet`` (postproc.compensate.progress).
 
 The real command line runs in a subprocess whose stderr is a pseudo-terminal (the ``pty``
 module) or a pipe; stdout is always a file, so the program written can be compared byte for

@@ -1,4 +1,4 @@
-"""The project file (postproc.project, docs/formats.md §19) and the starter profile
+"""The project file (postproc.cli.project, docs/formats.md §19) and the starter profile
 (``postproc profile init``): found from a subfolder, overridden by options, refused with its
 line, column and a did-you-mean when wrong; TOML errors in a profile point at the key.
 
@@ -140,7 +140,7 @@ def test_a_profile_error_points_at_the_key_with_a_did_you_mean(tmp_path, run):
 def test_profile_init_writes_a_commented_starter_that_reads_back_as_the_default(tmp_path, run):
     import dataclasses
 
-    from postproc import profile
+    from postproc.machine import profile
 
     target = tmp_path / "lathe3.toml"
     made = run("profile", "init", str(target))

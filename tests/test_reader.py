@@ -10,9 +10,9 @@ from hypothesis import strategies as st
 from conftest import SAMPLES
 
 from interpret import moves, steps
-from postproc.blocks import HEADER, TAPE, TRAILER
+from postproc.syntax.blocks import HEADER, TAPE, TRAILER
 from postproc.diagnostics import ProgramSyntaxError, Reporter
-from postproc.reader import read_blocks
+from postproc.syntax.reader import read_blocks
 from strategies import lines
 
 CCW, CW = str(SAMPLES / "ballbar/v40r-100-ccw.csv"), str(SAMPLES / "ballbar/v40r-100-cw.csv")

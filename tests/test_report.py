@@ -20,11 +20,12 @@ import pytest
 from click.testing import CliRunner
 
 from conftest import SAMPLES
-from postproc import __version__, hookspecs
-from postproc import plugins as registry
-from postproc.cli import main
+from postproc import __version__
+from postproc.compensate import hookspecs
+from postproc.compensate import registry
+from postproc.cli.main import main
 from postproc.compensator import Compensator
-from postproc.figures import figures
+from postproc.measure.figures import figures
 
 CHROMIUM = "/usr/bin/chromium"
 PROGRAM = SAMPLES / "programs" / "hemishell.nc"
@@ -370,8 +371,8 @@ def test_chromium_reports_a_broken_image_and_an_overflow_as_such(tmp_path):
 
 def test_a_partial_arc_is_reported_and_drawn_as_measured(tmp_path):
     """A lathe's 220 deg test: the report names ISO 13041-6 and the arc, the plots do not close it."""
-    from postproc.measurements.ballbar import read_ballbar
-    from postproc.plotting import along_arc
+    from postproc.measure.readers.ballbar import read_ballbar
+    from postproc.report.plotting import along_arc
 
     paths = []
     for direction, start in (("ccw", "200"), ("cw", "-20")):

@@ -9,8 +9,8 @@ import re
 from click.testing import CliRunner
 
 from conftest import REPO, SAMPLES
-from postproc import plugins as registry
-from postproc.cli import main
+from postproc.compensate import registry
+from postproc.cli.main import main
 from postproc.report.citations import PAGES, TITLES, citations, source_numbers, title
 
 HEADING = re.compile(r"^#{2,4}\s+(\d+(?:\.\d+)*)\.?\s+(.+?)\s*$")

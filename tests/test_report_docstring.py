@@ -9,8 +9,8 @@ import pytest
 from click.testing import CliRunner
 
 from conftest import SAMPLES
-from postproc import plugins as registry
-from postproc.cli import main
+from postproc.compensate import registry
+from postproc.cli.main import main
 from postproc.report.docstring import inline, parts
 
 MARKUP = re.compile(r"``|:[a-z]+:`|`_|(?<![\w`])`[^`\s][^`]*`(?!`)")
@@ -21,10 +21,10 @@ def _code(text):
 
 
 def test_inline_markup_becomes_code_spans_and_plain_text():
-    text = inline("Fits ``a_x`` with :func:`~postproc.ballbar_fit.fit`, see :mod:`postproc.models` and `iso`_ ::")
-    assert text.text == "Fits a_x with fit, see postproc.models and iso"  # " ::" goes, as in reST
-    assert _code(text) == ["a_x", "fit", "postproc.models", "iso"]
-    assert inline(":class:`the model <postproc.models.Model>`").text == "the model"
+    text = inline("Fits ``a_x`` with :func:`~postproc.measure.ballbar_fit.fit`, see :mod:`postproc.compensate.models` and `iso`_ ::")
+    assert text.text == "Fits a_x with fit, see postproc.compensate.models and iso"  # " ::" goes, as in reST
+    assert _code(text) == ["a_x", "fit", "postproc.compensate.models", "iso"]
+    assert inline(":class:`the model <postproc.compensate.models.Model>`").text == "the model"
 
 
 def test_blocks_lists_and_verbatim():

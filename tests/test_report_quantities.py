@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 from hypothesis import given, strategies as st
 
-from postproc.ballbar_fit import LABELS
+from postproc.measure.ballbar_fit import LABELS
 from postproc.report.quantities import path_quantity, quantity, significant, with_sigma
 
 

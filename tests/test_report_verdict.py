@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from hypothesis import given, settings, strategies as st
 
 from conftest import SAMPLES
-from postproc.cli import main
+from postproc.cli.main import main
 from postproc.report.verdict import FAIL, NONE, PASS, Band, Evidence, judge
 
 PROGRAM = SAMPLES / "programs" / "hemishell.nc"

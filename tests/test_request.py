@@ -1,4 +1,4 @@
-"""What the user asked for (postproc/request.py): one value, built by keyword."""
+"""What the user asked for (postproc/compensate/request.py): one value, built by keyword."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import dataclasses
 
 import pytest
 
-from postproc.request import Request
+from postproc.compensate.request import Request
 
 
 def test_a_request_is_built_by_keyword_only():

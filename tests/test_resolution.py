@@ -7,7 +7,7 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from postproc.resolution import Grid, rounded
+from postproc.machine.resolution import Grid, rounded
 
 
 @settings(max_examples=2000, deadline=None)

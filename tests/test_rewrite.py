@@ -13,12 +13,12 @@ from conftest import SAMPLES
 from interpret import moves
 from postproc.diagnostics import InterpretationError, Reporter, SafetyError
 from postproc.geometry import Arc
-from postproc.program import interpret_source
-from postproc import rewrite as rewrite_module
-from postproc.motion import ARC, LINE, Move
-from postproc.rewrite import Rewriter, Settings, pieces, sample_lines
-from postproc.segmenter import chord_minimum
-from postproc.source import Source
+from postproc.interpret.program import interpret_source
+from postproc.compensate import rewrite as rewrite_module
+from postproc.interpret.motion import ARC, LINE, Move
+from postproc.compensate.rewrite import Rewriter, Settings, pieces, sample_lines
+from postproc.compensate.segmenter import chord_minimum
+from postproc.syntax.source import Source
 
 HEMISHELL = (SAMPLES / "programs" / "hemishell.nc").read_text()
 

@@ -16,14 +16,14 @@ from conftest import SAMPLES
 from postproc.api import Pipeline
 from postproc.diagnostics import Reporter
 from postproc.geometry import Arc, Line, Profile, segment_of
-from postproc.models import dumps
-from postproc.motion import ARC, LINE, RUN
-from postproc.profile import DEFAULT
-from postproc.program import interpret_source
-from postproc.rewrite import _turns
-from postproc.resolution import Grid
-from postproc.segmenter import RADIUS_CHECK, TOLERANCE, Limits, PlanError, Segmenter, Target, plan, sample_params
-from postproc.source import Source
+from postproc.compensate.models import dumps
+from postproc.interpret.motion import ARC, LINE, RUN
+from postproc.machine.profile import DEFAULT
+from postproc.interpret.program import interpret_source
+from postproc.compensate.rewrite import _turns
+from postproc.machine.resolution import Grid
+from postproc.compensate.segmenter import RADIUS_CHECK, TOLERANCE, Limits, PlanError, Segmenter, Target, plan, sample_params
+from postproc.syntax.source import Source
 
 CCW, CW = str(SAMPLES / "ballbar/v40r-100-ccw.csv"), str(SAMPLES / "ballbar/v40r-100-cw.csv")
 INCH = 25.4

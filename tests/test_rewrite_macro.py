@@ -19,9 +19,9 @@ from hypothesis import strategies as st
 from conftest import SAMPLES
 from interpret import moves
 from postproc.diagnostics import Reporter, SafetyError
-from postproc.program import interpret_source
-from postproc.rewrite import Rewriter, Settings, macro_word
-from postproc.source import Source
+from postproc.interpret.program import interpret_source
+from postproc.compensate.rewrite import Rewriter, Settings, macro_word
+from postproc.syntax.source import Source
 
 CCW, CW = str(SAMPLES / "ballbar/v40r-100-ccw.csv"), str(SAMPLES / "ballbar/v40r-100-cw.csv")
 
@@ -161,7 +161,7 @@ def test_no_block_that_reads_a_variable_is_rewritten_unless_numbers_says_so(prof
 def test_the_word_that_reads_a_variable_is_found_and_constants_are_not_such_words():
     def block(text):
         with Source.from_text(text + "\n", "t.nc") as source:
-            from postproc.reader import read_blocks
+            from postproc.syntax.reader import read_blocks
 
             return next(read_blocks(source.lines(), "t.nc"))
 

@@ -8,8 +8,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 
 from conftest import SAMPLES, corpus_cases, machine_args
-from postproc.reader import read_blocks
-from postproc.source import Source
+from postproc.syntax.reader import read_blocks
+from postproc.syntax.source import Source
 from strategies import lathe_programs
 
 

@@ -6,8 +6,9 @@ import hashlib
 import json
 
 from conftest import SAMPLES
-from postproc import models, source
-from postproc.measurements import csvfile
+from postproc.compensate import models
+from postproc.syntax import source
+from postproc.measure.readers import csvfile
 
 HEMISHELL = str(SAMPLES / "programs" / "hemishell.nc")
 
@@ -34,8 +35,8 @@ def test_model_and_measurement_files_are_never_executed(tmp_path):
     """JSON and CSV only: no pickle, no eval anywhere in the readers."""
     import inspect
 
-    import postproc.measurements.ballbar as ballbar
-    import postproc.measurements.probe as probe
+    import postproc.measure.readers.ballbar as ballbar
+    import postproc.measure.readers.probe as probe
 
     for module in (models, csvfile, ballbar, probe):
         text = inspect.getsource(module)

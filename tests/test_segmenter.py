@@ -10,9 +10,9 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from postproc.geometry import Arc, Line
-from postproc.profile import DEFAULT
-from postproc.resolution import Grid
-from postproc.segmenter import Limits, Segmenter, Target, chord_minimum, measure_bends, plan, sample_params
+from postproc.machine.profile import DEFAULT
+from postproc.machine.resolution import Grid
+from postproc.compensate.segmenter import Limits, Segmenter, Target, chord_minimum, measure_bends, plan, sample_params
 
 MM = Grid(3, False, True)
 HEMISHELL = Arc.through((0.0, 57.15), (57.15, 0.0), (0.0, 0.0), cw=False)

@@ -16,7 +16,7 @@ from conftest import REPO, SAMPLES
 sys.path.insert(0, str(REPO / "benchmarks"))
 from programs import lathe_program  # noqa: E402
 
-COMMAND = [sys.executable, "-c", "from postproc.cli import main; main()"]
+COMMAND = [sys.executable, "-c", "from postproc.cli.main import main; main()"]
 TRACES = ["--plugin", "parametric", "--option", "extrapolate=true",
           "--ballbar", str(SAMPLES / "ballbar" / "v40r-100-ccw.csv"),
           "--ballbar", str(SAMPLES / "ballbar" / "v40r-100-cw.csv")]

@@ -13,10 +13,10 @@ from click.testing import CliRunner
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from postproc.cli import main
+from postproc.cli.main import main
 from postproc.diagnostics import EXIT_BAD_INPUT, MeasurementError, OptionError
-from postproc.measurements.ballbar import read_ballbar
-from postproc.measurements.probe import read_calibration, read_probe
+from postproc.measure.readers.ballbar import read_ballbar
+from postproc.measure.readers.probe import read_calibration, read_probe
 from postproc.simulator import (Simulation, ballbar_test, calibrate, cut, generator, inspect, load, nominal,
                                 probe_profile, read_program)
 from postproc.simulator.config import from_table

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from postproc.diagnostics import Reporter
-from postproc.program import interpret_source
-from postproc.source import Source
+from postproc.interpret.program import interpret_source
+from postproc.syntax.source import Source
 
 PROGRAM = """%
 O1000
