@@ -8,7 +8,7 @@ import builtins
 
 import pytest
 
-from conftest import REPO, SAMPLES
+from support import REPO, SAMPLES
 from postproc import diagnostics
 from postproc.interpret import interpreter
 from postproc.compensate import rewrite

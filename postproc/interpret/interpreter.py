@@ -471,7 +471,7 @@ class Interpreter:
 
     def _ordinary(self, block: Block) -> Step | None:
         """An ordinary block (G00-G03, axis words, F, S, M) interpreted without the general
-        machinery, or None to take the general path. ``tests/test_interpreter_fast.py`` checks
+        machinery, or None to take the general path. ``tests/interpret/test_interpreter_fast.py`` checks
         that both give the same steps, modal states and warnings."""
         modal = self.modal
         motion = modal.motion

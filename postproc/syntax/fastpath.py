@@ -14,7 +14,7 @@ simple comment and ``;``. A canonical block keeps its values as written in
 :attr:`Block.fields` and builds its ``codes`` only when asked: the interpreter reads the
 fields directly, which is what brings a large program near the tokenizer's speed.
 
-``tests/test_fastpath.py`` proves on the corpus and on generated programs
+``tests/syntax/test_fastpath.py`` proves on the corpus and on generated programs
 that both paths give the same block for every line the fast path accepts.
 """
 
