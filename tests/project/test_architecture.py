@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import ast
 import subprocess
 import sys
 import tomllib
@@ -81,3 +82,41 @@ def test_the_package_tree_is_the_map():
     page = (REPO / "docs" / "architecture.md").read_text()
     assert [name for name in sorted(packages) if f"| `{name}/` " not in page and f" · `{name}/` " not in page] == []
 
+
+
+#: folders of tests/ that mirror no package: helpers, the corpus, and the tests of the whole
+#: (closed loops on the virtual lathe, golden round trips, robustness, the pages, the project)
+ACROSS = {"support", "corpus", "closed_loop", "golden", "robustness", "docs", "project"}
+
+
+def _test_modules():
+    return [path for path in (REPO / "tests").rglob("*.py") if "corpus" not in path.relative_to(REPO / "tests").parts]
+
+
+def test_the_tests_mirror_the_packages():
+    """A newcomer finds the test of ``postproc/<package>/<module>.py`` in
+    ``tests/<package>/test_<module>*.py``. The command line's folder holds its end-to-end tests too."""
+    folders = {path.name for path in (REPO / "tests").iterdir() if path.is_dir() and not path.name.startswith((".", "_"))}
+    packages = {path.parent.name for path in (REPO / "postproc").glob("*/__init__.py")}
+    assert folders - ACROSS <= packages, folders - ACROSS - packages
+    strays = []
+    for folder in sorted(folders & packages - {"cli"}):
+        package = REPO / "postproc" / folder
+        names = {folder} | {path.stem for path in package.glob("*.py")} | {path.parent.name for path in package.glob("*/__init__.py")}
+        for test in (REPO / "tests" / folder).glob("test_*.py"):
+            tested = test.stem.removeprefix("test_")
+            if not any(tested == name or tested.startswith(name + "_") for name in names):
+                strays.append(str(test.relative_to(REPO)))
+    assert strays == []
+
+
+def test_no_test_module_imports_another():
+    """Shared helpers live in tests/support; a test module imports none of its peers (nor conftest)."""
+    found = []
+    for path in _test_modules():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = [alias.name for alias in node.names] if isinstance(node, ast.Import) else \
+                [node.module or ""] if isinstance(node, ast.ImportFrom) and node.level == 0 else []
+            found += [f"{path.relative_to(REPO)}: {name}" for name in names
+                      if name.split(".")[0].startswith("test_") or name.split(".")[0] == "conftest"]
+    assert found == []
