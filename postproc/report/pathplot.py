@@ -42,7 +42,9 @@ def magnification_for(largest: float, size: float, share: float = SHARE) -> floa
     """A round magnification that draws ``largest`` (mm) at most ``share`` of ``size`` (mm), at least 1."""
     if largest <= 0.0:
         return 1.0
-    wanted = share * size / largest
+    # a round number a rounding error short of the share still fits: 0.01 / 1e-05 is 999.9999999999999,
+    # whose log10 is 3.0, and 1000 draws the correction at exactly its share
+    wanted = share * size / largest * (1.0 + 1e-9)
     if wanted <= 1.0:
         return 1.0
     power = 10.0 ** math.floor(math.log10(wanted))
