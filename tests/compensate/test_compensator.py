@@ -11,7 +11,9 @@ from support import REPO
 
 #: The engine: what reads, interprets, plans and writes programs. A plugin never needs it.
 ENGINE = ("postproc.compensate.rewrite", "postproc.compensate.segmenter", "postproc.interpret.interpreter", "postproc.compensate.emitter", "postproc.syntax.reader",
-          "postproc.syntax.fastpath", "postproc.compensate.pipeline", "postproc.syntax.grammar", "postproc.interpret.corners", "postproc.syntax.macro")
+          "postproc.syntax.fastpath", "postproc.compensate.pipeline", "postproc.syntax.grammar", "postproc.interpret.corners", "postproc.syntax.macro",
+          "postproc.interpret.canonical", "postproc.interpret.statements", "postproc.interpret.convert",
+          "postproc.interpret.arcs", "postproc.interpret.cycles", "postproc.interpret.state")
 
 LOADED = """
 import json, sys
