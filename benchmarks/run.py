@@ -33,7 +33,7 @@ sys.path.insert(0, str(HERE))
 from programs import lathe_program  # noqa: E402
 
 PYTHON = sys.executable
-POSTPROC = [PYTHON, "-m", "postproc.cli"]
+POSTPROC = [PYTHON, "-m", "postproc.cli.main"]
 
 
 def once(command: list[str], stdout=subprocess.DEVNULL) -> tuple[float, float, int]:
@@ -223,14 +223,14 @@ def _model(work: Path) -> Path:
 
 
 def _imports() -> None:
-    result = subprocess.run([PYTHON, "-X", "importtime", "-c", "import postproc.cli"], capture_output=True, text=True)
+    result = subprocess.run([PYTHON, "-X", "importtime", "-c", "import postproc.cli.main"], capture_output=True, text=True)
     rows = []
     for line in result.stderr.splitlines():
         parts = line.split("|")
         if len(parts) == 3 and parts[1].strip().isdigit():
             rows.append((int(parts[1]), parts[2].rstrip()))
     total = max(rows)[0] if rows else 0
-    print(f"  postproc.cli: {total / 1e6:.3f} s in all; the heaviest modules:")
+    print(f"  postproc.cli.main: {total / 1e6:.3f} s in all; the heaviest modules:")
     for micros, name in sorted(rows, reverse=True)[1:6]:
         print(f"    {micros / 1e6:.3f} s {name.strip()}")
     heavy = [name.strip() for _, name in rows if name.strip() in ("numpy", "scipy", "matplotlib", "lark")]

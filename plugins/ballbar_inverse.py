@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-from postproc.ballbar_analysis import backlash_signs, jointly_centred
+from postproc.measure.ballbar_analysis import backlash_signs, jointly_centred
 from postproc.compensator import Measurements
 from postproc.diagnostics import Location, MeasurementError
 from postproc.hookspecs import hookimpl
-from postproc.measurements.ballbar import pair
-from postproc.trace_inversion import TraceInversion
-from postproc.traces import trace_from_model, trace_model
+from postproc.measure.readers.ballbar import pair
+from postproc.corrections.trace_inversion import TraceInversion
+from postproc.measure.traces import trace_from_model, trace_model
 
 
 class BallbarInverse(TraceInversion):

@@ -7,14 +7,14 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from postproc import ballbar_fit
-from postproc.ballbar_analysis import centred, tests
+from postproc.measure import ballbar_fit
+from postproc.measure.ballbar_analysis import centred, tests
 from postproc.compensator import Measurements, Piece
 from postproc.diagnostics import Location, MeasurementError, ModelError
-from postproc.error_functions import ErrorFunctions
+from postproc.corrections.error_functions import ErrorFunctions
 from postproc.geometry import Line
 from postproc.hookspecs import hookimpl
-from postproc.measurements.ballbar import BallbarTrace
+from postproc.measure.readers.ballbar import BallbarTrace
 
 TABLES = ("x+", "x-", "z+", "z-")  #: axis and direction of its travel
 OUTER = 0.1  #: share of a table's span at each end whose straight line extrapolates it

@@ -6,23 +6,23 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-from postproc import ballbar_fit, error_map
-from postproc.ballbar_analysis import Estimate, check_saved, screen, tests
+from postproc.measure import ballbar_fit, error_map
+from postproc.measure.ballbar_analysis import Estimate, check_saved, screen, tests
 from postproc.compensator import Compensator, Measurements, Option, Piece
 from postproc.diagnostics import Location, MeasurementError, ModelError, SafetyError
-from postproc.figures import figures
+from postproc.measure.figures import figures
 from postproc.hookspecs import hookimpl
-from postproc.measurements.probe import ProbeFile
-from postproc.motion import Move
-from postproc.probed import ProbeCompensator
-from postproc.probing import check_datum
+from postproc.measure.readers.probe import ProbeFile
+from postproc.interpret.motion import Move
+from postproc.corrections.probed import ProbeCompensator
+from postproc.measure.probing import check_datum
 
 OTHERS = ("backlash_x", "backlash_z", "servo_mismatch")  #: fitted beside the field; servo mismatch is not applied
 MOVES_REPORTED = 500  #: the report lists the uncertainty of at most this many corrected moves
 
 
 class _Placer(ProbeCompensator):
-    """Places a CMM's touches on the program's feed moves, screened per feature (postproc.probed)."""
+    """Places a CMM's touches on the program's feed moves, screened per feature (postproc.corrections.probed)."""
 
     name = "error-map"
 
@@ -39,7 +39,7 @@ class ErrorMap(Compensator):
     f_x and f_z are cubic tensor-product B-splines over the box the tests span. The correction
     is minus the error.
 
-    How it is fitted (:mod:`postproc.error_map`): one penalised least-squares fit to every trace
+    How it is fitted (:mod:`postproc.measure.error_map`): one penalised least-squares fit to every trace
     as measured (the removed set-up centres put back), the columns being the bar's reading of
     each basis function, the backlash, the servo mismatch (fitted so that it biases nothing,
     reported, not applied: it grows with the feed) and each test's set-up centre. Two

@@ -8,9 +8,9 @@ exact message (wrong magic line, empty, binary, UTF-16...).
 from __future__ import annotations
 
 from postproc.hookspecs import hookimpl
-from postproc.measurements.ballbar import read_ballbar
-from postproc.measurements.probe import read_calibration, read_probe
-from postproc.measurements.registry import MeasurementReader
+from postproc.measure.readers.ballbar import read_ballbar
+from postproc.measure.readers.probe import read_calibration, read_probe
+from postproc.measure.readers.registry import MeasurementReader
 
 
 def _any(path: str) -> bool:

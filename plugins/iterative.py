@@ -5,9 +5,9 @@ from __future__ import annotations
 from postproc.compensator import Measurements, Option
 from postproc.diagnostics import Location, MeasurementError
 from postproc.hookspecs import hookimpl
-from postproc.measurements.ballbar import BallbarTrace
-from postproc.trace_inversion import Summed, TraceInversion
-from postproc.traces import trace_from_model, trace_model
+from postproc.measure.readers.ballbar import BallbarTrace
+from postproc.corrections.trace_inversion import Summed, TraceInversion
+from postproc.measure.traces import trace_from_model, trace_model
 
 
 class Iterative(TraceInversion):

@@ -10,12 +10,12 @@ import numpy as np
 
 from postproc.compensator import Option, Piece
 from postproc.diagnostics import Location, MeasurementError
-from postproc.features import MIN_TOUCHES, Feature, owners
-from postproc.figures import figures
+from postproc.measure.features import MIN_TOUCHES, Feature, owners
+from postproc.measure.figures import figures
 from postproc.geometry import Line, Profile
 from postproc.hookspecs import hookimpl
-from postproc.motion import Move
-from postproc.probed import Evidence, ProbeCompensator, ProbedChain, move_key
+from postproc.interpret.motion import Move
+from postproc.corrections.probed import Evidence, ProbeCompensator, ProbedChain, move_key
 
 END_SNAP = 0.01  #: mm: a touch this close to the end of its feature covers it to that end, whatever the spacing
 SMOOTH_DEG = 10.0  #: a join where the tangent turns less than this is smooth: the error is interpolated across it
@@ -229,7 +229,7 @@ class OmpFeedback(ProbeCompensator):
     Per feature, never across a corner: the error a cut leaves steps at a corner (a tool set
     long in X makes a diameter big and leaves a face alone), so each feature is corrected from
     its own touches only. They are screened for the nub and stray touches against each other
-    (``postproc.screening``). Along an arc ``e`` is interpolated between them; along a line it
+    (``postproc.measure.screening``). Along an arc ``e`` is interpolated between them; along a line it
     is fitted with a straight line, whose slope is kept only where the touches show it (beyond
     3 standard errors and 0.5 um over their span), else their mean: a diameter stays a
     diameter and a face a face, so an axis that stood still still does (no backlash turned

@@ -1,7 +1,7 @@
 """parametric: per-axis error functions fitted to ballbar tests (Kakino), on every feed move.
 
 What it shares with ``effective-angle`` (the tests, their screening, the box the arcs span,
-the extrapolation rule, predicting the traces back) is :mod:`postproc.error_functions`.
+the extrapolation rule, predicting the traces back) is :mod:`postproc.corrections.error_functions`.
 """
 
 from __future__ import annotations
@@ -10,11 +10,11 @@ from typing import Any
 
 import numpy as np
 
-from postproc import ballbar_fit
-from postproc.ballbar_analysis import Estimate, check_saved
+from postproc.measure import ballbar_fit
+from postproc.measure.ballbar_analysis import Estimate, check_saved
 from postproc.compensator import Measurements
 from postproc.diagnostics import ModelError
-from postproc.error_functions import ErrorFunctions
+from postproc.corrections.error_functions import ErrorFunctions
 from postproc.hookspecs import hookimpl
 
 
@@ -84,7 +84,7 @@ class Parametric(ErrorFunctions):
     from backlash): a constant is the ballbar's set-up centre, which is not a machine error.
 
     How it is fitted: one linear least-squares fit to every trace as measured (the removed
-    set-up centres put back; :mod:`postproc.ballbar_fit`), the columns being the bar's reading
+    set-up centres put back; :mod:`postproc.measure.ballbar_fit`), the columns being the bar's reading
     of each parameter's per-axis error, ``e_x cos + e_z sin``, plus each test's set-up centre
     and the servo mismatch m (X lagging Z along the path: ``e_x -= m v_x / |v|``). m is fitted
     so it does not bias the backlash, and reported, but not applied: it grows with the feed,

@@ -8,13 +8,13 @@ import numpy as np
 
 from postproc.compensator import Option, Piece
 from postproc.diagnostics import FitError, Location, MeasurementError, OptionError
-from postproc.features import MIN_TOUCHES
-from postproc.figures import figures
-from postproc.fitting import register
+from postproc.measure.features import MIN_TOUCHES
+from postproc.measure.figures import figures
+from postproc.geometry.fitting import register
 from postproc.geometry import Profile
 from postproc.hookspecs import hookimpl
-from postproc.motion import REPLAY, Move
-from postproc.probed import ProbeCompensator, ProbedChain, move_key, rows_text
+from postproc.interpret.motion import REPLAY, Move
+from postproc.corrections.probed import ProbeCompensator, ProbedChain, move_key, rows_text
 
 APPLY = ("path", "wear-offset")
 DEFAULT_RESIDUAL = 0.005  #: mm, when the probe file gives no repeatability_mm

@@ -21,12 +21,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Sequence
 
-from . import bounds
-from . import profile as profiles
+from .machine import bounds
+from .machine import profile as profiles
 from .diagnostics import Diagnostic, OptionError, Reporter
-from .output import KEEP, Spool, refuse_overwrite
-from .request import Request
-from .source import Source
+from .files.output import KEEP, Spool, refuse_overwrite
+from .compensate.request import Request
+from .syntax.source import Source
 
 
 @dataclass(frozen=True)
@@ -64,7 +64,7 @@ class Pipeline:
         keep_unplannable: bool = False,
         macro_values: str = "refuse",
     ):
-        from .region import Region
+        from .compensate.region import Region
 
         Region(list(regions))  # refuse a bad region before anything is read
         if macro_values not in ("refuse", "keep", "numbers"):
@@ -81,7 +81,7 @@ class Pipeline:
                                keep_unplannable=keep_unplannable, macro_values=macro_values)
         self.core = None
         if plugins or model:
-            from .pipeline import Pipeline as Core
+            from .compensate.pipeline import Pipeline as Core
 
             self.core = Core(self.request, self.profile, self.reporter)
 
@@ -92,7 +92,7 @@ class Pipeline:
     def compensate_source(self, source: Source, spool: Spool) -> Summary:
         """Compensate one program into a spool (committed by the caller)."""
         if self.core is None:
-            from .program import tally_source
+            from .interpret.program import tally_source
 
             tally_source(source, self.profile, self.reporter)
             with source.open_binary() as raw:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from postproc.output import write_atomically
+from postproc.files.output import write_atomically
 from postproc.simulator import ballbar_test, calibrate, cut, generator, load, nominal, probe_profile, read_program
 from postproc.simulator.files import calibration_text, probe_text, trace_text
 

@@ -8,15 +8,17 @@ import builtins
 
 import pytest
 
-from conftest import REPO, SAMPLES
-from postproc import diagnostics, interpreter, rewrite
+from support import REPO, SAMPLES
+from postproc import diagnostics
+from postproc.interpret import interpreter
+from postproc.compensate import rewrite
 from postproc.diagnostics import EXIT_INTERNAL, EXIT_REFUSED, InterpretationError, Location
 
 HEMISHELL = str(SAMPLES / "programs" / "hemishell.nc")
 TRACES = [str(SAMPLES / "ballbar" / f"v40r-100-{d}.csv") for d in ("ccw", "cw")]
 #: Exception classes allowed outside diagnostics.py: click's usage errors of the command line,
 #: and the FreeCAD post, which runs inside FreeCAD without postproc installed.
-ELSEWHERE = {("postproc/commands/common.py", "BadValue"), ("postproc/cam/freecad/postproc_fanuc_lathe_post.py", "PostError")}
+ELSEWHERE = {("postproc/cli/common.py", "BadValue"), ("postproc/cam/freecad/postproc_fanuc_lathe_post.py", "PostError")}
 
 
 def _is_exception(value) -> bool:

@@ -1,6 +1,6 @@
 """The report's figures, rendered to PNG in memory.
 
-The ballbar plots are :mod:`postproc.plotting`'s own (the polar trace plot with the test's
+The ballbar plots are :mod:`postproc.report.plotting`'s own (the polar trace plot with the test's
 figures, deviation against angle), so the report shows what ``postproc ballbar --plot``
 draws; the profile plots and the verdict's chart (before and after against the band) are
 drawn here the same way (matplotlib's object API, imported on use, no pyplot). Deviations are
@@ -18,8 +18,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..measurements.ballbar import BallbarTrace
-from ..pathplot import magnification_for
+from ..measure.readers.ballbar import BallbarTrace
+from .pathplot import magnification_for
 from .document import Image
 
 DPI = 100
@@ -34,7 +34,7 @@ def png_image(png: bytes, alt: str, caption: str = "") -> Image:
 
 
 def _through_file(draw, *args, **options) -> bytes:
-    """Run one of postproc.plotting's functions, which write a file, and keep the bytes."""
+    """Run one of postproc.report.plotting's functions, which write a file, and keep the bytes."""
     with tempfile.TemporaryDirectory(prefix="postproc-report-") as folder:
         path = os.path.join(folder, "figure.png")
         draw(*args, path, **options)
@@ -57,8 +57,8 @@ def _figure(width: float = 8.0, height: float = 4.2):
 
 def polar(traces: Sequence[BallbarTrace], caption: str, test=None, diagnosis=None, measured: str | None = None) -> Image:
     """The traces about the nominal circle, magnified, with the test's ISO figures and diagnosis
-    written beside them (postproc.plotting.plot_traces: the plot ``postproc ballbar`` draws)."""
-    from ..plotting import plot_traces
+    written beside them (postproc.report.plotting.plot_traces: the plot ``postproc ballbar`` draws)."""
+    from .plotting import plot_traces
 
     png = _through_file(plot_traces, list(traces), test=test, diagnosis=diagnosis, measured=measured)
     return png_image(png, "polar plot of the ballbar traces", caption)
@@ -67,7 +67,7 @@ def polar(traces: Sequence[BallbarTrace], caption: str, test=None, diagnosis=Non
 def against_angle(series: Sequence[tuple[str, np.ndarray, np.ndarray]], caption: str) -> Image:
     """Deviation in um against theta; ``series`` are (label, angles_deg, deviations_mm), each in
     the order to draw it (a partial arc from its start, NaN at its gaps: plotting.along_arc)."""
-    from ..plotting import plot_deviation_vs_angle
+    from .plotting import plot_deviation_vs_angle
 
     return png_image(_through_file(plot_deviation_vs_angle, list(series)), "ballbar deviation against angle", caption)
 

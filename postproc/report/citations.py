@@ -8,7 +8,7 @@ page is (the ``docs`` folder of postproc's source: the repository, or the source
 distribution). Numbers of the source dissertation (eq. 6.11, Table 6.7) are named as the
 source's; docs/methods.md keeps an index of where each is discussed.
 
-:data:`TITLES` holds the pages' numbered headings (tests/test_report.py holds it to the pages
+:data:`TITLES` holds the pages' numbered headings (tests/report/test_report.py holds it to the pages
 and requires a title for every section a compensator's documentation or the report cites).
 """
 

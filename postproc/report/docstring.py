@@ -62,7 +62,7 @@ def inline(text: str, kind: str = "p") -> Text:
 
 
 def _role(target: str) -> str:
-    """``~postproc.ballbar_fit`` -> ``ballbar_fit``; ``title <target>`` -> ``title``."""
+    """``~postproc.measure.ballbar_fit`` -> ``ballbar_fit``; ``title <target>`` -> ``title``."""
     target = re.sub(r"\s*<[^>]*>$", "", target)
     return target[1:].rsplit(".", 1)[-1] if target.startswith("~") else target
 

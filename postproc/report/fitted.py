@@ -24,7 +24,7 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from ..figures import Figures
+from ..measure.figures import Figures
 from .charts import png_image
 from .document import Image, Part, Table, Text
 from .quantities import FOUR as FOUR_HEADINGS, Quantity, path_quantity, quantity, significant, with_sigma, words

@@ -1,6 +1,6 @@
 """The predicted profile of a program before and after compensation, on the virtual lathe.
 
-The program's profile is its first continuous chain of feed moves (:mod:`postproc.nominal`).
+The program's profile is its first continuous chain of feed moves (:mod:`postproc.measure.nominal`).
 Deviations are read, as the virtual CMM reads them, where a surface crosses the nominal
 normal at stations evenly spaced along the profile: positive = material left. Three things
 can be predicted there:
@@ -10,7 +10,7 @@ can be predicted there:
   cut on a perfect machine, against the nominal: the two differ by what the tolerance and
   the control's resolution allow;
 - from a **ballbar test**, before and after: the machine the traces' parametric diagnosis
-  describes (:func:`postproc.ballbar_analysis.diagnose`: scaling, backlash, squareness and
+  describes (:func:`postproc.measure.ballbar_analysis.diagnose`: scaling, backlash, squareness and
   the servo mismatch as lags, about the test centre) is built as a virtual lathe, and the
   program and the compensated program are cut on it. Nothing else is on that machine (no
   tool setting, deflection or nub: what a ballbar cannot see);
@@ -26,15 +26,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..ballbar_analysis import Diagnosis
+from ..measure.ballbar_analysis import Diagnosis
 from ..diagnostics import PostprocError, Reporter
-from ..motion import CONTOUR, CYCLE, Move
-from ..profile import MachineProfile
-from ..program import interpret_source
+from ..interpret.motion import CONTOUR, CYCLE, Move
+from ..machine.profile import MachineProfile
+from ..interpret.program import interpret_source
 from ..simulator import Nominal, Simulation, cut, nominal
 from ..simulator.config import Axis
 from ..simulator.surface import Turned
-from ..source import Source
+from ..syntax.source import Source
 
 STATION_SPACING = 0.25  #: mm between stations along the profile
 STATIONS = (61, 401)  #: fewest and most stations
@@ -148,7 +148,7 @@ def intended(program: Program, compensators: list, stations: Stations) -> np.nda
     Asked piece by piece as the rewriter asks (split at axis reversals, each axis's last
     direction of travel carried from move to move), projected on the profile, interpolated.
     """
-    from ..rewrite import pieces, travel_after
+    from ..compensate.rewrite import pieces, travel_after
 
     nominal = program.nominal
     chosen = set(nominal.indexes)

@@ -14,9 +14,10 @@ import platform
 from dataclasses import dataclass
 from importlib import metadata
 
-from .. import __version__, inputs
+from .. import __version__
+from ..files import inputs
 from ..diagnostics import PostprocError
-from ..profile import MachineProfile, to_toml
+from ..machine.profile import MachineProfile, to_toml
 from .document import Section, Table, Text
 
 
@@ -33,7 +34,7 @@ class Input:
 
 
 def file_input(role: str, path: str, notes: str = "") -> Input:
-    """A file as the run read it (its one read, :mod:`postproc.inputs`)."""
+    """A file as the run read it (its one read, :mod:`postproc.files.inputs`)."""
     snapshot = inputs.read(path, MAX_BYTES, PostprocError, "an input")
     return Input(role, path, snapshot.sha256, len(snapshot.data), notes)
 

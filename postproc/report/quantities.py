@@ -10,7 +10,7 @@ states (``_mm``, ``_um``, ``_rad``, ``_deg``, ``_ms``, ``_s``, ``_ppm``), so a t
 plugin's figures read right without the report knowing it. In a table of fitted errors
 (``errors=True``) an unknown length is shown in um, the scale machine errors are read on.
 
-The names of the ballbar parameters are :data:`postproc.ballbar_fit.LABELS`, the ones
+The names of the ballbar parameters are :data:`postproc.measure.ballbar_fit.LABELS`, the ones
 ``postproc ballbar`` prints, so the report and the command line name a figure alike.
 """
 
@@ -20,7 +20,7 @@ import math
 import re
 from dataclasses import dataclass
 
-from ..ballbar_fit import LABELS
+from ..measure.ballbar_fit import LABELS
 
 UM, URAD = "um", "urad"  #: micrometre and microradian, spelt as every message of postproc spells them
 _SHOWN = {"um": UM, "urad": URAD}
@@ -51,7 +51,7 @@ SCALES = {"mm": ("length", 1e-3), UM: ("length", 1e-6), "rad": ("angle", 1.0), U
 #: key without its unit suffix -> (name, factor from the key's unit, unit shown)
 TABLE: dict[str, tuple[str, float, str]] = {
     **{key: (name, factor, _SHOWN.get(unit, unit)) for key, (name, factor, unit) in LABELS.items()},
-    # the diagnosis (postproc.ballbar_analysis) under the keys of `postproc ballbar --json`
+    # the diagnosis (postproc.measure.ballbar_analysis) under the keys of `postproc ballbar --json`
     "servo_lag": ("servo lag, X behind Z", 1.0, "ms"),
     "setup_centre_x": ("set-up centre x", 1e3, UM),
     "setup_centre_z": ("set-up centre z", 1e3, UM),

@@ -27,22 +27,22 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..ballbar_analysis import CircularTest, Diagnosis, centred, circular_test, diagnose, plausibility
+from ..measure.ballbar_analysis import CircularTest, Diagnosis, centred, circular_test, diagnose, plausibility
 from ..diagnostics import EXIT_BAD_INPUT, EXIT_REFUSED, MeasurementError, PostprocError, Reporter, SafetyError
-from ..figures import Figures, figures
-from ..measurements.ballbar import BallbarTrace, pair
-from ..measurements.probe import CalibrationRun, ProbeFile
-from ..measurements.registry import ReadContext, read as read_measurement
-from ..output import KEEP, Spool
-from ..request import Request
-from ..probing import ProbedProfile, probe_profile
-from ..profile import MachineProfile
-from ..source import Source
+from ..measure.figures import Figures, figures
+from ..measure.readers.ballbar import BallbarTrace, pair
+from ..measure.readers.probe import CalibrationRun, ProbeFile
+from ..measure.readers.registry import ReadContext, read as read_measurement
+from ..files.output import KEEP, Spool
+from ..compensate.request import Request
+from ..measure.probing import ProbedProfile, probe_profile
+from ..machine.profile import MachineProfile
+from ..syntax.source import Source
 from . import prediction, provenance
 
 if TYPE_CHECKING:
     from ..api import Pipeline, Summary
-    from ..pretravel import CalibrationModel
+    from ..measure.pretravel import CalibrationModel
 
 KINDS = (("ballbar", "ballbar trace"), ("probe", "probe points"), ("calibration", "probe calibration"))
 
@@ -157,7 +157,7 @@ def _fit(run: Run) -> None:
 
 def _read(run: Run) -> None:
     """The measurements, read again for the report (quietly when the pipeline already warned)."""
-    from ..plugins import readers
+    from ..compensate.registry import readers
 
     request = run.inputs.request
     context = ReadContext(Reporter() if run.pipeline is not None else run.reporter)
@@ -168,7 +168,7 @@ def _read(run: Run) -> None:
     probes = [read_measurement(path, "probe", found, context) for path in request.probe]
     run.calibrations = [read_measurement(request.calibration, "calibration", found, context)] if request.calibration else []
     if run.calibrations:
-        from ..pretravel import fit_calibration
+        from ..measure.pretravel import fit_calibration
 
         run.calibration = fit_calibration(run.calibrations)
     run.probes = [Probed(probe, None) for probe in probes]
@@ -178,9 +178,9 @@ def _model_traces(run: Run) -> None:
     """With a saved model: the traces it carries when no trace was given, or why there are none.
 
     A compensator's model is its own data (docs/formats.md §13); a trace in it is recognised by
-    the shape :func:`postproc.traces.trace_model` gives it, wherever it sits, and read back
-    with the checks a saved trace gets (:func:`postproc.traces.trace_from_model`)."""
-    from ..traces import trace_from_model
+    the shape :func:`postproc.measure.traces.trace_model` gives it, wherever it sits, and read back
+    with the checks a saved trace gets (:func:`postproc.measure.traces.trace_from_model`)."""
+    from ..measure.traces import trace_from_model
 
     model = run.inputs.request.model
     recorded = [path for path, _ in run.pipeline.core.inputs[:-1]]
@@ -199,9 +199,9 @@ def _model_traces(run: Run) -> None:
             continue
         found += [trace_from_model(item, direction) for item, direction in _saved_traces(data)]
     if found:
-        from ..measurements.csvfile import parse_time
-        from ..models import read as read_model
-        from ..plotting import moment_text
+        from ..measure.readers.csvfile import parse_time
+        from ..compensate.models import read as read_model
+        from .plotting import moment_text
 
         run.traces = found
         moment = parse_time(str(read_model(model).get("measured", "")))

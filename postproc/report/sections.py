@@ -8,7 +8,7 @@
    normal against arc length, the dropped nub or outliers marked; without a program, the
    touched points), the probe calibration (pretravel against direction, the model chosen).
 3. **ISO 230-4 figures and the error diagnosis**: G, F, G(b), H and the parametric diagnosis
-   with 1-sigma uncertainties (:mod:`postproc.ballbar_analysis`), the model drawn over the
+   with 1-sigma uncertainties (:mod:`postproc.measure.ballbar_analysis`), the model drawn over the
    traces.
 4. **Fitted models**: each compensator's documentation, the options in force and its
    ``report()`` dict, shown whatever it holds (:mod:`.fitted`).
@@ -34,12 +34,12 @@ import os
 
 import numpy as np
 
-from ..ballbar_analysis import predict
-from ..ballbar_fit import arc_text
+from ..measure.ballbar_analysis import predict
+from ..measure.ballbar_fit import arc_text
 from ..diagnostics import Reporter
-from ..measurements.ballbar import BallbarTrace
-from ..plotting import along_arc
-from ..probing import touched_points
+from ..measure.readers.ballbar import BallbarTrace
+from .plotting import along_arc
+from ..measure.probing import touched_points
 from . import charts, citations, docstring, fitted, provenance, verdict
 from .document import Document, Image, Part, Section, Table, Text, Verdict
 from .quantities import FOUR

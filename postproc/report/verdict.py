@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..ballbar_analysis import predict
+from ..measure.ballbar_analysis import predict
 from . import charts
 from .document import Part, Section, Table, Text, Verdict
 from .quantities import UM

@@ -4,7 +4,7 @@ One job per module:
 
 - :mod:`.config`: the ``[simulation]`` table of a machine profile (every key documented there);
 - :mod:`.errors`: the machine error model (equations and sign conventions there);
-- :mod:`.path`: commanded paths sampled in time; :mod:`postproc.nominal`: a program's profile
+- :mod:`.path`: commanded paths sampled in time; :mod:`postproc.measure.nominal`: a program's profile
   (:mod:`.nominal`: the wear offsets its G10 blocks set);
 - :mod:`.surface`: what a stylus or a CMM touches;
 - :mod:`.ballbar`, :mod:`.cut`, :mod:`.touch` + :mod:`.probe`, :mod:`.calibrate`, :mod:`.cmm`:
@@ -19,7 +19,7 @@ deviation: along the normal out of the material, positive = material left. Noise
 """
 
 from .nominal import run_program  # the submodule first: the function ``nominal`` below then takes its name here
-from ..nominal import Nominal, nominal, read_program
+from ..measure.nominal import Nominal, nominal, read_program
 from .ballbar import BallbarRun, ballbar_test, program_test
 from .calibrate import CalibrationRun, artifact_round, calibrate
 from .cmm import Inspection, inspect

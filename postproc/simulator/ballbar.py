@@ -32,7 +32,7 @@ import numpy as np
 
 from ..diagnostics import Location, OptionError
 from ..geometry import Arc, Line, segment_of
-from ..motion import ARC, LINE, Move
+from ..interpret.motion import ARC, LINE, Move
 from .config import Simulation
 from .errors import Machine
 from .path import Commanded, Timeline, sample, speed

@@ -8,7 +8,7 @@ ball shows up in k as it did on the real machine. The machine's errors at the ar
 in the readings too, as they are in a real calibration. The calibration is taken at the
 thermal state a probing session starts from: no drift.
 
-:func:`artifact_round` takes one round of finding the ball (:mod:`postproc.artifact`): the
+:func:`artifact_round` takes one round of finding the ball (:mod:`postproc.measure.artifact`): the
 pole touch and the two side touches at an estimated centre, on the same ball.
 """
 

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..diagnostics import Location, MeasurementError
-from ..figures import Figures, figures
-from ..nominal import Nominal
+from ..measure.figures import Figures, figures
+from ..measure.nominal import Nominal
 from .config import Simulation
 from .surface import Turned
 

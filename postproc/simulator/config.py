@@ -117,7 +117,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import profile as profiles
+from ..machine import profile as profiles
 from ..diagnostics import Location, OptionError
 
 ANY, NONNEGATIVE, POSITIVE, COUNT, PAIR, OPTIONAL = "any", "nonnegative", "positive", "count", "pair", "optional"
@@ -299,7 +299,7 @@ def _fields(cls, table: dict, where: str, origin: str, tables: dict | None = Non
         elif key in known and known[key].metadata:
             values[key] = _checked(name, value, known[key].metadata, origin)
         else:
-            from ..inputs import did_you_mean
+            from ..files.inputs import did_you_mean
 
             choices = sorted(k for k in known if k not in tables and k not in lists)
             raise OptionError(f"unknown key '{name}' in the machine profile{did_you_mean(key, choices)} "

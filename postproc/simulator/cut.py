@@ -2,7 +2,7 @@
 
 The control runs every move of the program (so that lost motion and servo lag carry over
 from one move to the next); the surface is what the tool tip leaves along the profile
-(:mod:`postproc.nominal`), from the moment a lagging axis has caught up with the profile's start:
+(:mod:`postproc.measure.nominal`), from the moment a lagging axis has caught up with the profile's start:
 
 1. actual tool path = commanded + machine error (:mod:`.errors`) + tool-setting offset + the
    wear the program's G10 blocks gave the move's offset number (``wear``,
@@ -25,8 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..motion import Move
-from ..nominal import ON_AXIS_MM, Nominal
+from ..interpret.motion import Move
+from ..measure.nominal import ON_AXIS_MM, Nominal
 from .config import Simulation
 from .errors import Machine
 from .path import sample

@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..measurements.csvfile import read_table
-from ..measurements.probe import CALIBRATION_MAGIC, PROBE_MAGIC
+from ..measure.readers.csvfile import read_table
+from ..measure.readers.probe import CALIBRATION_MAGIC, PROBE_MAGIC
 from .ballbar import BallbarRun
 from .calibrate import CalibrationRun
 from .cmm import Inspection

@@ -1,19 +1,19 @@
 """What a program does to the virtual lathe besides the profile it cuts: the wear offsets its
 G10 blocks set. The profile itself, and the moves the control runs, are
-:mod:`postproc.nominal` (the probing code measures against them too).
+:mod:`postproc.measure.nominal` (the probing code measures against them too).
 """
 
 from __future__ import annotations
 
 from ..diagnostics import Reporter
-from ..motion import Move
-from ..nominal import program_moves
-from ..profile import DEFAULT, MachineProfile
+from ..interpret.motion import Move
+from ..measure.nominal import program_moves
+from ..machine.profile import DEFAULT, MachineProfile
 
 
 def run_program(path: str, profile: MachineProfile = DEFAULT,
                 reporter: Reporter | None = None) -> tuple[str, list[Move], dict[int, tuple[float, float]]]:
-    """The program's name, the moves the control runs (:func:`postproc.nominal.read_program`), and
+    """The program's name, the moves the control runs (:func:`postproc.measure.nominal.read_program`), and
     what its G10 blocks do to the wear offsets (:func:`wear_added`)."""
     name, moves, settings = program_moves(path, profile, reporter)
     return name, moves, wear_added(settings, profile)

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..diagnostics import Location, ProgramError
 from ..geometry import Arc, Segment, segment_of
-from ..motion import RAPID, Move
+from ..interpret.motion import RAPID, Move
 from .config import Simulation
 
 

@@ -1,6 +1,6 @@
 """Probing a cut surface at points spread along the nominal profile of its program.
 
-``points`` touches evenly spaced in arc length along the profile (:mod:`postproc.nominal`), both ends
+``points`` touches evenly spaced in arc length along the profile (:mod:`postproc.measure.nominal`), both ends
 included, or, given an ``inset``, spread over the profile's features as ``postproc
 probe-program`` spreads them (:meth:`.nominal.Nominal.spread`); each approaches along the
 nominal normal into the material (:mod:`.touch`).
@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..features import MIN_TOUCHES
-from ..nominal import Nominal
+from ..measure.features import MIN_TOUCHES
+from ..measure.nominal import Nominal
 from .config import Simulation
 from .surface import Plane, Turned
 from .touch import Touch, run

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..diagnostics import Collision, Location, MeasurementError
-from ..measurements.probe import approach_theta
+from ..measure.readers.probe import approach_theta
 from .config import Simulation
 from .errors import Machine
 from .surface import Touchable

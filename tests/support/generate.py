@@ -1,6 +1,6 @@
 """Random FANUC lathe programs of the subset that both postproc and LinuxCNC's ``rs274`` read.
 
-The differential test (``tests/test_linuxcnc.py``) interprets each program twice, with
+The differential test (``tests/interpret/test_interpreter_linuxcnc.py``) interprets each program twice, with
 ``postproc path`` and with ``rs274`` after ``to_linuxcnc``, and requires the same motions to
 1e-4 mm.  So a program must be valid on a FANUC control *and* its every value must come out
 of rs274's 4-decimal canonical output exactly:

@@ -12,7 +12,7 @@ over-travel either side of a partial capture.
 
 from __future__ import annotations
 
-from postproc.measurements.ballbar import BallbarTrace, make_trace
+from postproc.measure.readers.ballbar import BallbarTrace, make_trace
 from postproc.simulator import ballbar_test, generator
 from postproc.simulator.config import from_table
 

@@ -8,9 +8,9 @@ from postproc.compensator import Compensator, Measurements, Option
 from postproc.diagnostics import Location, MeasurementError
 from postproc.geometry import Arc
 from postproc.hookspecs import hookimpl
-from postproc.measurements.ballbar import BallbarTrace, make_trace
-from postproc.measurements.csvfile import snapshot
-from postproc.measurements.registry import MeasurementReader, first_line
+from postproc.measure.readers.ballbar import BallbarTrace, make_trace
+from postproc.measure.readers.csvfile import snapshot
+from postproc.measure.readers.registry import MeasurementReader, first_line
 
 
 class RadialAllowance(Compensator):

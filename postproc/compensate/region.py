@@ -1,0 +1,81 @@
+"""``--region``: what part of a program to compensate; everything else stays byte for byte.
+
+A region is a range of sequence numbers (``N100-N200``: from the block labelled N100 to the
+block labelled N200, in program order), a range of source lines (``L10-L50`` or ``10-50``),
+or a tool (``T1``, ``T01``, ``T0101``: moves made while that tool is in the turret). Several
+``--region`` options select the union of their blocks.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from ..diagnostics import OptionError
+from ..interpret.motion import Move, Step
+
+_LABELS = re.compile(r"^[Nn](\d+)-[Nn](\d+)$")
+_LINES = re.compile(r"^[Ll]?(\d+)-[Ll]?(\d+)$")
+_TOOL = re.compile(r"^[Tt](\d{1,4})$")
+
+
+@dataclass(frozen=True)
+class Range:
+    kind: str  #: "labels", "lines" or "tool"
+    first: int
+    last: int
+
+
+def parse(text: str) -> Range:
+    spec = text.strip()
+    if match := _LABELS.match(spec):
+        first, last = int(match.group(1)), int(match.group(2))
+        return Range("labels", first, last)
+    if match := _LINES.match(spec):
+        first, last = int(match.group(1)), int(match.group(2))
+        if first > last:
+            raise OptionError(f"--region {text}: the first line comes after the last")
+        return Range("lines", first, last)
+    if match := _TOOL.match(spec):
+        digits = match.group(1)
+        tool = int(digits[:-2]) if len(digits) > 2 else int(digits)  # T0101: tool 1, offset 01
+        return Range("tool", tool, tool)
+    raise OptionError(f"--region {text}: expected N100-N200, L10-L50 (or 10-50) or a tool like T01")
+
+
+class Region:
+    """Whether a step's moves may be compensated; asked, in program order, about the moves a
+    compensation could change (so that ``matched`` says whether the region selected any)."""
+
+    def __init__(self, specs: list[str]):
+        self.ranges = [parse(spec) for spec in specs]
+        self._open: set[int] = set()  # label ranges we are inside
+        self._step: Step | None = None
+        self._selected = False
+        self.matched = False  #: whether any move asked about was selected
+
+    def __call__(self, step: Step, move: Move) -> bool:
+        if not self.ranges:
+            return True
+        if step is not self._step:
+            self._step = step
+            self._selected = self._decide(step)
+        chosen = self._selected or any(r.kind == "tool" and move.tool == r.first for r in self.ranges)
+        self.matched |= chosen
+        return chosen
+
+    def _decide(self, step: Step) -> bool:
+        label = step.block.label
+        line = step.block.line
+        inside = False
+        for index, r in enumerate(self.ranges):
+            if r.kind == "lines":
+                inside |= r.first <= line <= r.last
+            elif r.kind == "labels":
+                if label == r.first:
+                    self._open.add(index)
+                if index in self._open:
+                    inside = True
+                    if label == r.last:
+                        self._open.discard(index)
+        return inside

@@ -1,0 +1,1005 @@
+"""Applying corrections: targets through the segmenter into blocks, joined to the rest.
+
+The rewriter streams the interpreted steps in batches (a bounded look-ahead): the pieces of
+a batch's moves are corrected in one call, then the steps go through a window of one motion
+step and the non-motion steps after it. When the next motion step arrives, the join between
+the two is settled, then the window is written out:
+
+- a move whose start moved (its correction is not zero there) gets the previous move's
+  end point moved to meet it when that move is a plain line or rapid (as the source's
+  Table 6.2 does for the G01 to the pole), else a short connecting G01 first;
+- a move whose end moved leaves the next move to start from there: a line or rapid with
+  both end coordinates absolute still ends where it did; one that omits an axis or moves
+  incrementally gets its end written out absolutely; anything else (an arc, a cycle, a
+  thread) gets a connecting G01 back to the nominal end first;
+- a block whose motion mode the replacement no longer leaves in force (it relied on
+  modal G03, say) gets that code written in front of it.
+
+Unchanged blocks are copied byte for byte. Every replacement is checked by reading its
+text back through the interpreter and measuring the result against the target
+(the self-check); a replacement that fails is a SafetyError and nothing is written.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+from dataclasses import dataclass, field, replace
+from typing import Callable, Iterable, Iterator
+
+import numpy as np
+
+from ..interpret import gcodes as G
+from ..syntax.blocks import Block
+from ..diagnostics import Location, PostprocError, Reporter, SafetyError, UnplannableBlock
+from ..machine.bounds import MAX_TOLERANCE
+from .compensator import Piece
+from .emitter import Style, Writer, with_motion_code
+from .farthest import farthest, within
+from ..geometry import Arc, Line, segment_of
+from ..interpret.interpreter import Interpreter
+from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
+from ..syntax.reader import read_blocks
+from ..machine.resolution import Grid
+from .segmenter import (RADIUS_CHECK, RESOLUTION, TOLERANCE, Cut, Limits, Plan, PlanError, Segmenter, Target,
+                        measure_bends, plan, sample_params)
+
+JOIN = 1e-9  #: nominal points closer than this are the same point
+#: What becomes of a block whose geometry words read macro variables (``X[#504+6.]``) when it
+#: would be rewritten: the run is refused (the default), it is left uncompensated, or its values
+#: are written as numbers (the block then no longer follows the variables).
+REFUSE, KEEP, NUMBERS = "refuse", "keep", "numbers"
+MACRO_VALUES = (REFUSE, KEEP, NUMBERS)
+NAMED = 5  #: blocks named one by one in the warnings about macro values; the rest are counted
+STEPS = (0.0005, 0.001)  #: the output grid's x and z steps (radius mm) of a metric diameter program
+BATCH = 256  #: steps read ahead so that their pieces are corrected in one call
+
+
+def sample_lines(parts: list[Piece]) -> None:
+    """Sample the points of every straight piece in one array pass (``Line.point_at``'s
+    arithmetic, point for point): a program of short lines has thousands of them."""
+    straight = [piece for piece in parts if type(piece.segment) is Line and "points" not in piece.__dict__]
+    if not straight:
+        return
+    counts = [len(piece.t) for piece in straight]
+    lines = [piece.segment for piece in straight]
+    start = np.repeat(np.array([(line.x0, line.z0) for line in lines]), counts, axis=0)
+    delta = np.repeat(np.array([(line.x1 - line.x0, line.z1 - line.z0) for line in lines]), counts, axis=0)
+    points = start + np.concatenate([piece.t for piece in straight])[:, None] * delta
+    points.setflags(write=False)
+    first = 0
+    for piece, count in zip(straight, counts):
+        piece.__dict__["points"] = points[first : first + count]  # what the cached property would compute
+        first += count
+
+
+def _travel(dx: float, dz: float, last: tuple[int, int], steps: tuple[float, float]) -> tuple[int, int]:
+    """Which way each axis runs over a piece that moves it by (dx, dz): the sign of that travel,
+    or the way the axis last ran when it travels less than half a step of the output grid
+    (an axis the control does not move keeps its backlash where it was; so does one that
+    only wanders by less, as an arc does about an apex it barely passes)."""
+    x = (dx > 0.0) - (dx < 0.0) if abs(dx) >= steps[0] / 2.0 else last[0]
+    z = (dz > 0.0) - (dz < 0.0) if abs(dz) >= steps[1] / 2.0 else last[1]
+    return x, z
+
+
+def pieces(move: Move, last: tuple[int, int] = (0, 0), steps: tuple[float, float] = STEPS) -> list[Piece]:
+    """A move split where an axis reverses, so direction-dependent corrections act per side.
+
+    ``last`` is the direction each axis last travelled in before the move; ``steps`` the
+    output grid's steps in x and z (radius mm). Only reversals the grid can see count
+    (:func:`_turns`).
+    """
+    segment = segment_of(move)
+    if isinstance(segment, Line):
+        bounds = [0.0, 1.0]
+    else:
+        bounds = [0.0, *_turns(segment, steps), 1.0]
+    result = []
+    for a, b in zip(bounds, bounds[1:]):
+        if isinstance(segment, Line) or (len(bounds) == 2 and segment.r1 is None):
+            part = segment  # the whole move: part(0, 1) would be the same arc
+        else:
+            part = segment.part(a, b)
+        (x0, z0), (x1, z1) = part.start, part.end
+        last = _travel(x1 - x0, z1 - z0, last, steps)
+        result.append(Piece(move, part, sample_params(part), *last))
+    return result
+
+
+def _turns(arc: Arc, steps: tuple[float, float]) -> list[float]:
+    """The parameters where an axis of the arc reverses, as far as the output grid can see.
+
+    A reversal counts when the axis travels at least half a grid step on either side of it
+    (up to the arc's ends or the axis's next reversal) and leaves a piece of at least one
+    step each way. Less is below what the control commands: an R arc whose end lies a hair
+    past an apex (its centre, worked out from R, sits nanometres off the end's axis) turns
+    the axis back by picometres, and a piece that short has no block of its own.
+    """
+    found = arc.reversal_params()
+    if not found:
+        return found
+    length = arc.length
+    shortest = max(steps) / length if length > 0.0 else math.inf
+    theta0, sweep = arc.theta0, arc.sweep
+    kept: list[float] = []
+    previous = 0.0
+    for index, t in enumerate(found):
+        theta = theta0 + t * sweep
+        axis = 0 if abs(math.sin(theta)) < 0.5 else 1  # x turns where sin(theta) = 0, z where cos(theta) = 0
+        same = [u for u in found if u != t and (abs(math.sin(theta0 + u * sweep)) < 0.5) == (axis == 0)]
+        before = max([u for u in same if u < t], default=0.0)
+        after = min([u for u in same if u > t], default=1.0)
+        cosine_or_sine = (math.cos, math.sin)[axis]
+
+        def value(u: float) -> float:  # the axis about the centre at parameter u, the radius drifting on a spiral
+            return cosine_or_sine(theta0 + u * sweep) * float(arc.radius_at(u))
+
+        here = value(t)
+        travel = min(abs(here - value(before)), abs(value(after) - here))
+        following = found[index + 1] if index + 1 < len(found) else 1.0
+        if travel >= steps[axis] / 2.0 and t - previous >= shortest and following - t >= shortest:
+            kept.append(t)
+            previous = t
+    return kept
+
+
+def travel_after(move: Move, last: tuple[int, int], steps: tuple[float, float] = STEPS) -> tuple[int, int]:
+    """The direction each axis last travelled in, once ``move`` has run: an arc's is that of
+    its last piece (as :func:`pieces` splits it).
+
+    Worked out with floats, not the geometry's arrays: it runs for every move of the
+    program, compensated or not."""
+    if not move.known or move.kind not in (LINE, ARC, RAPID) or not move.exact:
+        return (0, 0) if not move.known else last
+    if move.xc is None:
+        return _travel(move.x1 - move.x0, move.z1 - move.z0, last, steps)
+    if (move.x0, move.z0) == (move.xc, move.zc) == (move.x1, move.z1):
+        return last
+    arc = segment_of(move)
+    if arc.sweep == 0.0:
+        return last
+    turns = _turns(arc, steps)
+    (x0, z0) = arc.part(turns[-1], 1.0).start if turns else (move.x0, move.z0)
+    return _travel(move.x1 - x0, move.z1 - z0, last, steps)
+
+
+#: The corrections wanted for a run of pieces, in order: an (n, 2) array or None for each.
+Corrector = Callable[[list[Piece]], "list[np.ndarray | None]"]
+
+
+@dataclass
+class Edit:
+    """What becomes of one move: the targets of its pieces and the cuts planned for them."""
+
+    move: Move
+    targets: list[Target]
+    plans: list[Plan] = field(default_factory=list)
+    lead_in: Cut | None = None  #: connecting move before the first target
+    lead_out: Cut | None = None  #: connecting move after the last target
+    spans: list[tuple[int, int]] = field(default_factory=list)  #: each plan's cuts in the block's cut list
+
+    @property
+    def start(self) -> tuple[float, float]:
+        return self.targets[0].start
+
+    @property
+    def end(self) -> tuple[float, float]:
+        return self.targets[-1].end
+
+
+@dataclass
+class Entry:
+    step: Step
+    edits: list[Edit | None] = field(default_factory=list)  #: one per move of the step
+    retarget: tuple[tuple[float, float] | None, tuple[float, float] | None] | None = None  #: new (start, end)
+    refusal: PostprocError | None = None  #: found while correcting the batch, raised when the step is reached
+    kept: bool = False  #: left as it is (keep_unplannable): its neighbours meet it, it does not move to meet them
+
+    @property
+    def edited(self) -> bool:
+        return any(edit is not None for edit in self.edits)
+
+    @property
+    def motion(self) -> bool:
+        return any(move.role in (RUN, CONTOUR, CORNER) for move in self.step.moves)
+
+
+@dataclass
+class Settings:
+    tolerance: float | None = None  #: None: the profile's default for the program's units
+    mode: str = "auto"
+    max_arc_radius: float = 5000.0
+    arc_radius_tolerance: float = 0.01
+    decimals_mm: int = 3
+    decimals_inch: int = 4
+    diameter: bool = True
+    system: str = "A"
+    min_block_time_s: float = 0.001
+    max_spindle_rpm: float = 4000.0
+    x_limits: tuple[float, float] | None = None
+    z_limits: tuple[float, float] | None = None
+    nose_radius: float = 0.4
+    default_tolerance: Callable[[bool], float] = lambda inch: 0.001
+    max_correction: float = math.inf  #: mm; a larger correction is refused
+    keep_unplannable: bool = False  #: leave a block that cannot be held uncompensated, with a warning
+    macro_values: str = REFUSE  #: a block whose geometry reads macro variables: REFUSE, KEEP or NUMBERS
+
+
+class Rewriter:
+    """Streams steps to output text, replacing the moves the corrector changes."""
+
+    def __init__(self, steps: Iterable[Step], corrector: Corrector, settings: Settings, reporter: Reporter,
+                 file: str = "<program>", selects: Callable[[Step, Move], bool] | None = None):
+        self.steps = steps
+        self.corrector = corrector
+        self.settings = settings
+        self.reporter = reporter
+        self.file = file
+        self.selects = selects or (lambda step, move: True)
+        self.mode_now = None  # motion mode the control is in after what was written
+        self.original_mode = None  # motion mode the original program had at this point
+        self.largest = 0.0  #: largest correction applied, mm
+        self.replaced = 0  #: blocks replaced
+        self.emitted = 0  #: blocks written for them
+        self.worst = 0.0  #: largest measured deviation from a target, mm
+        self.unplannable: list[tuple[int, str]] = []  #: (line, limit) of each block left uncompensated
+        self.macro_lines: list[int] = []  #: blocks whose macro values were written as numbers, or kept for them
+        self._contour: tuple[list[Cut], list[Cut]] | None = None
+        self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
+        self._checker: Interpreter | None = None  # reads replacements back (the self-check)
+        self._grids: dict[bool, Grid] = {}  # by inch
+        self._allowances: dict[bool, tuple[float, float]] = {}  # for the last check, by inch
+        self._grid_steps: dict[bool, tuple[float, float]] = {}  # by inch
+        self._limits: dict[tuple[float, bool], Limits] = {}  # by tolerance and inch
+
+    # ------------------------------------------------------------------ streaming
+
+    def run(self) -> Iterator[str]:
+        window: list[Entry] = []
+        previous: Entry | None = None
+        self.mode_now = self.original_mode = None
+        for batch in self._corrected(self.steps):
+            for entry in batch:
+                if entry.refusal is not None:
+                    raise entry.refusal
+                if entry.motion:
+                    if entry.edited:
+                        self._plan_edits(entry)
+                    if previous is not None:
+                        self._join(previous, entry)
+                    yield from self._flush(window)
+                    window = [entry]
+                    previous = entry
+                else:
+                    window.append(entry)
+        if previous is not None:
+            self._join(previous, None)
+        yield from self._flush(window)
+        if len(self.macro_lines) > NAMED:
+            done = ("left uncompensated" if self.settings.macro_values == KEEP
+                    else "written with their macro values as numbers")
+            self.reporter.warn(f"{len(self.macro_lines)} blocks in all {done} (--macro-values "
+                               f"{self.settings.macro_values}); the first {NAMED} are named above", Location(self.file))
+
+    def _corrected(self, steps: Iterable[Step]) -> Iterator[list[Entry]]:
+        """The steps in batches of at most BATCH, each motion step with its edits: the pieces
+        of a whole batch go to the corrector in one call (a bounded look-ahead)."""
+        batch: list[Entry] = []
+        alarm = None
+        try:
+            for step in steps:
+                batch.append(Entry(step))
+                if len(batch) == BATCH:
+                    self._correct(batch)
+                    yield batch
+                    batch = []
+        except PostprocError as exc:  # the blocks before it are written first: an error there comes first
+            alarm = exc
+        if batch:
+            self._correct(batch)
+            yield batch
+        if alarm is not None:
+            raise alarm
+
+    # ------------------------------------------------------------------ corrections
+
+    def _candidate(self, step: Step, move: Move) -> bool:
+        return (
+            step.interpreted
+            and not step.shared
+            and move.kind in (LINE, ARC)
+            and move.exact
+            and move.known
+            and (move.kind == ARC or (move.x0, move.z0) != (move.x1, move.z1))  # a line of no length: nothing to move
+            and move.role in (RUN, CONTOUR, CORNER)
+            and step.block.delete is None
+            and self.selects(step, move)
+        )
+
+    def _correct(self, batch: list[Entry]) -> None:
+        """Give each motion step of the batch its edits (None for a move left as it is)."""
+        wanted: list[tuple[Entry, int, list[Piece]]] = []
+        for entry in batch:
+            if not entry.motion:
+                continue
+            step = entry.step
+            entry.edits = [None] * len(step.moves)
+            steps = self._steps(step)
+            for index, move in enumerate(step.moves):
+                if self._candidate(step, move):
+                    wanted.append((entry, index, pieces(move, self._last_travel, steps)))
+                if move.role in (RUN, CONTOUR, CORNER):
+                    self._last_travel = travel_after(move, self._last_travel, steps)
+        if not wanted:
+            return
+        every = [piece for _, _, parts in wanted for piece in parts]
+        sample_lines(every)
+        shifts = self.corrector(every)
+        given = [shift for shift in shifts if shift is not None]
+        if given:  # the largest correction of each corrected piece, in one pass
+            starts = np.cumsum([0] + [len(shift) for shift in given[:-1]])
+            joined = np.concatenate(given) if len(given) > 1 else given[0]
+            sizes = iter(np.maximum.reduceat(np.hypot(joined[:, 0], joined[:, 1]), starts).tolist())
+        first = 0
+        lines: list[Target] = []  # the straight targets, for measure_bends
+        for entry, index, parts in wanted:
+            mine = shifts[first : first + len(parts)]
+            first += len(parts)
+            if all(shift is None for shift in mine):
+                continue
+            targets, largest = [], 0.0
+            for piece, shift in zip(parts, mine):
+                if shift is None:
+                    shift = np.zeros((len(piece.t), 2))
+                else:
+                    size = next(sizes)
+                    if size > self.settings.max_correction and entry.refusal is None:  # raised in program order
+                        entry.refusal = SafetyError(f"a correction of {size:.4f} mm exceeds the maximum correction "
+                                                    f"{self.settings.max_correction:g} mm (--max-correction)",
+                                                    Location(self.file, piece.move.line))
+                    largest = max(largest, size)
+                targets.append(Target.along(piece.segment, piece.t, shift, piece.points))
+            moved = largest > 0.0
+            if moved and (entry.kept or self._macro_kept(entry)):
+                continue  # left as it is: its correction is not applied
+            self.largest = max(self.largest, largest)
+            if moved:
+                edit = Edit(parts[0].move, _merge_continuous(targets, self._tolerance(entry.step) / 10.0))
+                entry.edits[index] = edit
+                if type(edit.targets[0].nominal) is Line:
+                    lines.append(edit.targets[0])
+        measure_bends(lines)
+
+    # ------------------------------------------------------------------ joins
+
+    def _join(self, previous: Entry, entry: Entry | None) -> None:
+        """Settle how the last move of ``previous`` meets the first move of ``entry``."""
+        moves = [m for m in previous.step.moves if m.role in (RUN, CONTOUR, CORNER)]
+        last_move = moves[-1]
+        last_edit = previous.edits[previous.step.moves.index(last_move)]
+        if entry is None:  # the program ends: nothing follows from the nominal end
+            return
+        firsts = [m for m in entry.step.moves if m.role in (RUN, CONTOUR, CORNER)]
+        first_move = firsts[0]
+        first_edit = entry.edits[entry.step.moves.index(first_move)]
+        connected = (
+            None not in (last_move.x1, last_move.z1, first_move.x0, first_move.z0)
+            and abs(last_move.x1 - first_move.x0) < JOIN
+            and abs(last_move.z1 - first_move.z0) < JOIN
+            and (last_move.role == CONTOUR) == (first_move.role == CONTOUR)
+        )
+        if self._has_corner(previous.step.block) and first_edit is not None and not previous.edited:
+            if self._macro_kept(previous, entry):  # the corner cannot be written out: the follower stays too
+                entry.edits = [None] * len(entry.step.moves)
+                first_edit = None
+            else:
+                self._explicit(previous)
+                last_edit = previous.edits[previous.step.moves.index(last_move)]
+        if not connected:  # the next move does not start from here (a contour's end, a jump): nothing to join
+            return
+        nominal = (last_move.x1, last_move.z1)
+        if last_edit is None and first_edit is None:
+            return
+        if last_edit is not None and first_edit is not None:
+            first_edit.lead_in = self._connector(last_edit.end, first_edit.start, entry.step)  # None when they meet
+            return
+        if first_edit is not None:  # only the following move changed: meet its new start
+            if self._simple(previous) and not self._starts_contour(previous):
+                self._retarget(previous, end=first_edit.start)
+            else:
+                first_edit.lead_in = self._connector(nominal, first_edit.start, entry.step)
+            return
+        # only the previous move changed: the following one starts where it ends now
+        if last_edit.end == nominal:
+            return
+        if not self._simple(entry):
+            last_edit.lead_out = self._connector(last_edit.end, nominal, previous.step)
+        elif self._end_would_move(entry, last_edit.end, nominal):
+            self._retarget(entry, start=last_edit.end)
+
+    def _simple(self, entry: Entry) -> bool:
+        """A block with one plain line or rapid that can be rewritten with other end points."""
+        step = entry.step
+        return (
+            not entry.kept
+            and len(step.moves) == 1
+            and step.moves[0].kind in (LINE, RAPID)
+            and step.moves[0].exact
+            and step.moves[0].known
+            and step.moves[0].role in (RUN, CONTOUR)
+            and step.interpreted
+            and step.block.delete is None
+            and not self._has_corner(step.block)
+            and step.block.statement is None
+            and (self.settings.macro_values == NUMBERS or macro_word(step.block) is None)
+            and (step.block.fields is not None  # canonical: no G code but G00-G03
+                 or not any(letter == "G" and _group(value, self.settings.system) in (G.ONE_SHOT, None)
+                            for letter, value in step.block.codes))
+        )
+
+    def _end_would_move(self, entry: Entry, start, nominal) -> bool:
+        """Whether the block, started from ``start`` instead of ``nominal``, would end elsewhere.
+
+        It does when an axis that moved is omitted from the block or given incrementally
+        (U/W, or X/Z under G91 in systems B and C).
+        """
+        letters = {letter for letter, _ in entry.step.block.codes}
+        absolute = entry.step.modal.absolute
+        grid = self._grid(entry.step)
+        moved_x = grid.x_word(start[0]) != grid.x_word(nominal[0])
+        moved_z = grid.z_word(start[1]) != grid.z_word(nominal[1])
+        fixed_x = "X" in letters and absolute
+        fixed_z = "Z" in letters and absolute
+        return (moved_x and not fixed_x) or (moved_z and not fixed_z)
+
+    @staticmethod
+    def _retarget(entry: Entry, start=None, end=None) -> None:
+        old_start, old_end = entry.retarget or (None, None)
+        entry.retarget = (start or old_start, end or old_end)
+
+    @staticmethod
+    def _starts_contour(entry: Entry) -> bool:
+        """The first block of a P..Q contour: its form (X only for a type I G71) must stay."""
+        return entry.step.in_contour and entry.step.moves[0].role == CONTOUR and entry.step.block.label is not None
+
+    @staticmethod
+    def _has_corner(block: Block) -> bool:
+        return block.fields is None and any(letter in (",C", ",R") for letter, _ in block.codes)
+
+    def _explicit(self, entry: Entry) -> None:
+        """Write a corner block's geometry out, so the control no longer computes the corner."""
+        entry.edits = [_as_it_is(move) if move.kind in (LINE, ARC) and move.known else None for move in entry.step.moves]
+
+    def _connector(self, start, end, step: Step) -> Cut | None:
+        a, b = self._snap(step, start), self._snap(step, end)
+        if a == b:
+            return None
+        return Cut(a[0], a[1], b[0], b[1])
+
+    # ------------------------------------------------------------------ units and limits
+
+    def _grid(self, step: Step) -> Grid:
+        inch = step.modal.inch
+        grid = self._grids.get(inch)
+        if grid is None:
+            settings = self.settings
+            grid = self._grids[inch] = Grid(settings.decimals_inch if inch else settings.decimals_mm, inch,
+                                            settings.diameter)
+        return grid
+
+    def _steps(self, step: Step) -> tuple[float, float]:
+        """The output grid's x and z steps (radius mm) in the step's units."""
+        inch = step.modal.inch
+        steps = self._grid_steps.get(inch)
+        if steps is None:
+            grid = self._grid(step)
+            steps = self._grid_steps[inch] = (grid.x_step, grid.z_step)
+        return steps
+
+    def _allowance(self, step: Step) -> tuple[float, float]:
+        """The tolerance the last check counts (at most MAX_TOLERANCE) and one output step in mm
+        (the larger of X's, a radius, and Z's), by the program's units."""
+        inch = step.modal.inch
+        found = self._allowances.get(inch)
+        if found is None:
+            grid = self._grid(step)
+            found = self._allowances[inch] = (min(self._tolerance(step), MAX_TOLERANCE), max(grid.x_step, grid.z_step))
+        return found
+
+    def _tolerance(self, step: Step) -> float:
+        if self.settings.tolerance is not None:
+            return self.settings.tolerance
+        return self.settings.default_tolerance(step.modal.inch)
+
+    def _snap(self, step: Step, point) -> tuple[float, float]:
+        return self._grid(step).snap(*point)
+
+    @staticmethod
+    def _rebalanced(first: Cut, second: Cut, target: Target, grid: Grid, shortest: float) -> list[Cut]:
+        """Two neighbouring blocks, one too short: the shared vertex moved to the target halfway
+        between their outer ends when both halves are then long enough, else one block."""
+        if first.length + second.length >= 2.0 * shortest and not first.is_arc and not second.is_arc:
+            ends = np.array([first.start, second.end])
+            index = [int(np.argmin(np.hypot(*(target.points - end).T))) for end in ends]
+            middle = grid.snap(*target.points[(index[0] + index[1]) // 2].tolist())
+            halves = [Cut(*first.start, *middle), Cut(*middle, *second.end)]
+            if all(cut.length >= shortest for cut in halves):
+                return halves
+        return [Cut(first.x0, first.z0, second.x1, second.z1)]
+
+    # ------------------------------------------------------------------ writing
+
+    def _flush(self, window: list[Entry]) -> Iterator[str]:
+        for entry in window:
+            yield from self._write(entry)
+
+    def _write(self, entry: Entry) -> Iterator[str]:
+        step = entry.step
+        block = step.block
+        before = self.original_mode
+        self.original_mode = step.modal.motion
+        if not entry.edited and entry.retarget is None:
+            fields = block.fields
+            if fields is not None:  # a canonical block: G00-G03 at most, read from its fields
+                sets_mode = fields[1] is not None
+                relies = not sets_mode and any(value is not None for value in fields[2:6])  # X Z I K
+            else:
+                codes = [value for letter, value in block.codes if letter == "G"]
+                sets_mode = any(_group(value, self.settings.system) == G.MOTION for value in codes)
+                relies = (
+                    any(letter in "XZUWIK" for letter, _ in block.codes)
+                    and not sets_mode
+                    and not any(_group(value, self.settings.system) == G.ONE_SHOT for value in codes)
+                )
+            if relies and self.mode_now is not None and before is not None and self.mode_now != before:
+                writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
+                yield with_motion_code(block, writer.code(before, Style.of(block)))
+                self.mode_now = before
+                return
+            if sets_mode or self.mode_now is None:
+                self.mode_now = step.modal.motion
+            self._follow_contour(step, None)
+            yield block.raw
+            return
+        if self.settings.macro_values == NUMBERS:
+            word = macro_word(block)
+            if word is not None:
+                self._said_macro(block, word, "its macro values are written as numbers (--macro-values numbers): "
+                                              "the block no longer follows the variables it reads")
+        cuts = self._cuts(entry)
+        self._within_limits(step, cuts)
+        writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
+        lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
+        self._self_check(entry, lines, cuts)
+        self._near_nominal(entry, cuts)
+        self._follow_contour(step, cuts)
+        self.mode_now = mode
+        self.replaced += 1
+        self.emitted += len(lines)
+        yield from lines
+
+    def _cuts(self, entry: Entry) -> list[Cut]:
+        """The cuts that replace a step, each plan's share recorded for the self-check."""
+        step = entry.step
+        if entry.retarget is not None:
+            move = step.moves[0]
+            a = self._snap(step, entry.retarget[0] or (move.x0, move.z0))
+            b = self._snap(step, entry.retarget[1] or (move.x1, move.z1))
+            return [Cut(a[0], a[1], b[0], b[1], rapid=move.kind == RAPID)]
+        cuts: list[Cut] = []
+
+        def add(cut: Cut | None) -> None:
+            if cut is None:
+                return
+            if cuts and cuts[-1].end != cut.start:  # pieces that do not meet: a connecting move
+                cuts.append(Cut(*cuts[-1].end, *cut.start))
+            if cut.start != cut.end:
+                cuts.append(cut)
+
+        for index, (move, edit) in enumerate(zip(step.moves, entry.edits)):
+            if edit is None:
+                if move.kind == RAPID:
+                    a, b = self._snap(step, (move.x0, move.z0)), self._snap(step, (move.x1, move.z1))
+                    add(Cut(a[0], a[1], b[0], b[1], rapid=True))
+                    continue
+                edit = entry.edits[index] = _as_it_is(move)  # written out, for it shares the block with a change
+            add(edit.lead_in)
+            if not edit.plans:
+                edit.plans = [self._plan(step, target) for target in edit.targets]
+            for planned in edit.plans:
+                self.worst = max(self.worst, planned.deviation)
+                add(planned.cuts[0])
+                first = len(cuts) - 1
+                for cut in planned.cuts[1:]:
+                    add(cut)
+                edit.spans.append((first, len(cuts)))
+            add(edit.lead_out)
+        return cuts
+
+    def _macro_kept(self, entry: Entry, follower: Entry | None = None) -> bool:
+        """Whether a block whose geometry reads macro variables is to be left as it is (KEEP),
+        or the run refused (REFUSE, the error raised in program order); False when it may be
+        rewritten (NUMBERS, or no such word). ``follower``: the block that is left uncompensated
+        instead, for a corner block that would have to be written out to meet it."""
+        word = macro_word(entry.step.block)
+        policy = self.settings.macro_values
+        if word is None or policy == NUMBERS:
+            return False
+        block = entry.step.block
+        where = Location(self.file, block.line, word.col + 1, block.text)
+        if policy == REFUSE:
+            if follower is not None:
+                raise _macro_refusal(word, where, f" (its corner meets the compensated block on line "
+                                                  f"{follower.step.block.line})")
+            if entry.refusal is None:
+                entry.refusal = _macro_refusal(word, where, "")
+            return True
+        kept = follower or entry
+        kept.kept = True
+        self.unplannable.append((kept.step.block.line, "macro values"))
+        reason = (f"the corner of line {block.line}, whose {word.text} reads a macro variable, meets it"
+                  if follower is not None else f"{word.text} reads a macro variable")
+        self._said_macro(kept.step.block, word if follower is None else None,
+                         f"block left uncompensated (--macro-values keep): {reason}")
+        return True
+
+    def _said_macro(self, block: Block, word, message: str) -> None:
+        """One of the blocks the macro-value policy acted on: the first few are named."""
+        self.macro_lines.append(block.line)
+        if len(self.macro_lines) <= NAMED:
+            col = word.col if word is not None else (block.words[0].col if block.words else 0)
+            self.reporter.warn(message, Location(self.file, block.line, col + 1, block.text))
+
+    def _plan_edits(self, entry: Entry) -> None:
+        """Plan the blocks of an edited step before its joins are settled. A move that cannot
+        be held refuses the run; with ``keep_unplannable`` the whole block is left as it is
+        instead (listed as a warning and in :attr:`unplannable`), and its neighbours join its
+        nominal path as they join any block left alone."""
+        step = entry.step
+        try:
+            for index, (move, edit) in enumerate(zip(step.moves, entry.edits)):
+                if edit is None and move.kind != RAPID:  # written out, for it shares the block with a change
+                    edit = entry.edits[index] = _as_it_is(move)
+                if edit is not None:
+                    edit.plans = [self._plan(step, target) for target in edit.targets]
+        except UnplannableBlock as exc:
+            if not self.settings.keep_unplannable:
+                raise
+            entry.edits = [None] * len(step.moves)
+            entry.kept = True
+            self.unplannable.append((step.block.line, exc.limit))
+            self.reporter.warn(f"block left uncompensated (--keep-unplannable): {exc.cause}", exc.location)
+
+    def _plan(self, step: Step, target: Target) -> Plan:
+        settings = self.settings
+        key = (self._tolerance(step), step.modal.inch)
+        limits = self._limits.get(key)
+        if limits is None:
+            limits = self._limits[key] = Limits(key[0], self._grid(step), settings.arc_radius_tolerance,
+                                                settings.max_arc_radius)
+        try:
+            result = plan(target, limits, settings.mode)
+        except PlanError as exc:
+            raise self._unplannable(step, exc.limit, str(exc), exc.needed) from None
+        if len(result.cuts) > 1:  # one block has no neighbour to merge with
+            result = self._keep_long(result, target, limits, self._length_rule(step, result.cuts), step)
+        return result
+
+    def _unplannable(self, step: Step, limit: str, cause: str, needed: float | None) -> UnplannableBlock:
+        """The refusal of a block that cannot be held: which limit stops it, where (the word it
+        concerns, with a caret), and what would let it through."""
+        remedies = []
+        if limit in _REMEDIES:
+            remedies.append(_REMEDIES[limit])
+        if needed is not None and 0.0 < needed <= 0.1:
+            remedies.append(f"--tolerance {_rounded_up(needed)} (the nearest plan for this block keeps within "
+                            f"{needed * 1000:.2f} um)")
+        remedies.append("--keep-unplannable to leave such blocks uncompensated")
+        block = step.block
+        word = next((w for w in block.words if w.letter in _WORDS_OF[limit]), None) or next(
+            (w for w in block.words if w.letter in "XZUW"), None)
+        location = Location(self.file, block.line, None if word is None else word.col + 1, block.text)
+        return UnplannableBlock(f"block cannot be compensated: {cause} ({limit}); to go on, give " + ", or ".join(remedies),
+                                location, limit, f"{cause} ({limit})")
+
+    def _length_rule(self, step: Step, cuts: list[Cut]):
+        """How long each block must be, and why: ``rule(cuts, i) -> (mm, reason)``.
+
+        The control's look-ahead starves on blocks shorter than its minimum block time at the
+        feed. Under G41/G42 the control shortens each block's offset path by r tan(phi/2) at a
+        corner turning by phi (r the nose radius); a block shorter than what its two corners
+        take away turns back, and the interference check alarms.
+        """
+        move = next((m for m in step.moves if m.kind in (LINE, ARC)), None)
+        lookahead = 0.0
+        if move is not None and move.feed is not None:
+            feed = move.feed
+            if move.per_rev:
+                x = min(min(abs(c.x0), abs(c.x1)) for c in cuts)
+                feed *= step.modal.rpm(x, self.settings.max_spindle_rpm)
+            lookahead = feed * self.settings.min_block_time_s / 60.0
+        comp = move.comp if move is not None and move.comp in (41, 42) else None
+        nose = self.settings.nose_radius
+
+        def rule(cuts: list[Cut], i: int) -> tuple[float, str]:
+            need, why = lookahead, "the minimum block time at this feed"
+            if comp is not None and nose > 0:
+                taken = nose * (_half_turn(cuts, i - 1, i) + _half_turn(cuts, i, i + 1))
+                if taken > need:
+                    need = taken
+                    why = f"under G{comp} the nose radius offset of a shorter block turns back: interference alarm"
+            return need, why
+
+        return rule
+
+    def _keep_long(self, result: Plan, target: Target, limits: Limits, rule, step: Step) -> Plan:
+        """Merge blocks shorter than the rule allows; widen with a warning, or refuse."""
+        cuts = list(result.cuts)
+        if len(cuts) < 2 or all(cut.length >= rule(cuts, i)[0] for i, cut in enumerate(cuts)):
+            return result
+        segmenter = Segmenter(target, limits)
+        shortest, reason = 0.0, ""
+        while len(cuts) > 1:
+            short = [i for i, cut in enumerate(cuts) if cut.length < rule(cuts, i)[0]]
+            if not short:
+                break
+            i = short[0]
+            shortest, reason = rule(cuts, i)
+            j = i - 1 if i == len(cuts) - 1 or (i > 0 and cuts[i - 1].length < cuts[i + 1].length) else i + 1
+            a, b = sorted((i, j))
+            cuts[a : b + 1] = self._rebalanced(cuts[a], cuts[b], target, limits.grid, shortest)
+        deviation = segmenter.measure(cuts)
+        tolerance = limits.tolerance
+        if deviation > 2.0 * tolerance:
+            raise self._unplannable(
+                step, INTERFERENCE if reason.startswith("under G4") else BLOCK_TIME,
+                f"blocks shorter than {shortest * 1000:.1f} um ({reason}) are needed to keep within "
+                f"{tolerance * 1000:.2f} um; merging them would leave {deviation * 1000:.2f} um", deviation)
+        if deviation > tolerance:
+            self.reporter.warn(
+                f"blocks merged to keep them longer than {shortest * 1000:.1f} um ({reason}): "
+                f"tolerance widened to {deviation * 1000:.2f} um here", _where(self.file, step))
+        return Plan(cuts, deviation, result.method + "+merged", widened=deviation > tolerance)
+
+    def _within_limits(self, step: Step, cuts: list[Cut]) -> None:
+        """A compensated move must stay inside the machine's soft limits (the profile's)."""
+        for axis, limits, name in ((0, self.settings.x_limits, "x"), (1, self.settings.z_limits, "z")):
+            if limits is None:
+                continue
+            values = np.concatenate([cut.sample(1.0)[:, axis] for cut in cuts])
+            low, high = float(values.min()), float(values.max())
+            if low < limits[0] or high > limits[1]:
+                beyond = low if low < limits[0] else high
+                raise SafetyError(
+                    f"the compensated move reaches {name} = {beyond:.4f} mm, beyond the soft limit "
+                    f"{limits[0]:g} .. {limits[1]:g} mm of the machine profile",
+                    _where(self.file, step))
+
+    # ------------------------------------------------------------------ cycle contours
+
+    def _follow_contour(self, step: Step, cuts: list[Cut] | None) -> None:
+        """Collect a P..Q contour as planned and as written; at its end, check the cycle's rules."""
+        if not step.in_contour:
+            return
+        contour = self._contour
+        if contour is None:
+            contour = self._contour = ([], [])
+        nominal = [_cut_of(m) for m in step.moves if m.role == CONTOUR and m.known]
+        contour[0].extend(nominal)
+        if cuts is None:  # written as it was: from wherever the previous block left the tool
+            cuts = list(nominal)
+            if cuts and contour[1] and not cuts[0].is_arc:
+                cuts[0] = cuts[0]._replace(x0=contour[1][-1].x1, z0=contour[1][-1].z1)
+        contour[1].extend(cuts)
+        if step.contour_end:
+            self._contour = None
+            self._check_monotone(step, *contour)
+
+    def _check_monotone(self, step: Step, nominal: list[Cut], written: list[Cut]) -> None:
+        """A G71/G72 contour must keep running one way in each axis it ran one way before."""
+        for axis, name in ((0, "X"), (1, "Z")):
+            direction = _monotone(nominal, axis)
+            if direction and _monotone(written, axis) not in (direction, 0):
+                raise SafetyError(
+                    f"the compensated contour of the cycle on line {step.cycle_line} would no longer run one way in "
+                    f"{name}, as the cycle requires (FANUC alarm PS0064); the run is refused",
+                    _where(self.file, step))
+
+    # ------------------------------------------------------------------ self-check
+
+    def _self_check(self, entry: Entry, lines: list[str], cuts: list[Cut]) -> None:
+        """Read the replacement back as the control will and check it is what was measured.
+
+        Each plan's deviation from its target was measured on the control's model of its
+        blocks (end points on the grid, arcs about the centre their rounded I and K give).
+        Reading the written text back through the interpreter must give exactly those
+        blocks; then the measured deviation is the deviation of what the control will run.
+        """
+        step = entry.step
+        first = cuts[0]
+        checker = self._checker
+        if checker is None:
+            checker = self._checker = Interpreter(replace(_profile_for(self.settings), name="self-check"), Reporter(),
+                                                  self.file)
+        checker.x, checker.z = first.x0, first.z0
+        checker.modal = checker.with_motion(step.modal, self.mode_now)
+        moves: list[Move] = []
+        try:
+            for block in read_blocks(lines, "<replacement>"):
+                moves.extend(checker.step(block).moves)
+        except PostprocError as exc:  # the replacement must parse and interpret; anything else is a bug (exit 5)
+            raise SafetyError(f"self-check: the replacement does not read back ({exc.message})",
+                              _where(self.file, step)) from None
+        if len(moves) != len(cuts):
+            raise SafetyError(f"self-check: {len(cuts)} moves planned, {len(moves)} read back", _where(self.file, step))
+        for planned, move in zip(cuts, moves):
+            got = _cut_of(move)
+            if got != planned and max(map(abs, map(operator.sub, _numbers(planned), _numbers(got)))) > 1e-9:
+                raise SafetyError(f"self-check: a block reads back as {got}, planned {planned}", _where(self.file, step))
+        tolerance = self._tolerance(step)
+        for edit in entry.edits:
+            for planned in (edit.plans if edit is not None else ()):
+                allowed = max(tolerance, planned.deviation if planned.widened else tolerance)
+                if not planned.deviation <= allowed * (1 + 1e-9):
+                    raise SafetyError(
+                        f"self-check: the replacement runs {planned.deviation * 1000:.2f} um from the intended path "
+                        f"(tolerance {tolerance * 1000:.2f} um)", _where(self.file, step))
+
+    def _near_nominal(self, entry: Entry, cuts: list[Cut]) -> None:
+        """No written cut may run further from the moves it replaces than the largest correction
+        plus the tolerance (:mod:`postproc.compensate.farthest`), whatever the options: the tolerance counts
+        at most :data:`bounds.MAX_TOLERANCE` here, a widened plan's at most twice that, and one
+        output step is allowed for the rounding of connecting moves."""
+        step = entry.step
+        tolerance, slack = self._allowance(step)
+        nominal = []
+        for move, edit in zip(step.moves, entry.edits or [None] * len(step.moves)):
+            if edit is not None:  # the pieces the targets were made of: the move itself
+                nominal += [target.nominal for target in edit.targets]
+                for planned in edit.plans:
+                    if planned.widened:
+                        tolerance = max(tolerance, min(planned.deviation, 2.0 * tolerance))
+            elif move.known and move.kind in (LINE, ARC, RAPID):
+                nominal.append(segment_of(move))
+        allowed = self.largest + tolerance + slack
+        for cut in cuts:
+            if not any(within(cut, segment, allowed) for segment in nominal):
+                distance = min(farthest(cut, segment) for segment in nominal)
+                raise SafetyError(
+                    f"the replacement would run {distance * 1000:.1f} um from the programmed path, more than the "
+                    f"largest correction ({self.largest * 1000:.2f} um) plus the tolerance ({tolerance * 1000:.2f} um) "
+                    "allow: refused", _where(self.file, step))
+
+
+BLOCK_TIME, INTERFERENCE = "minimum block time", "nose radius interference check"
+_REMEDIES = {
+    RESOLUTION: "more decimals (output_decimals_mm, output_decimals_inch in the machine profile) if the control's "
+                "increment system takes them",
+    RADIUS_CHECK: "the control's own limit as arc_radius_tolerance in the machine profile (FANUC parameter 3410)",
+    BLOCK_TIME: "a smaller min_block_time_s in the machine profile, or a lower feed",
+    INTERFERENCE: "the tool's own nose radius as nose_radius_mm in the machine profile",
+}
+_WORDS_OF = {RESOLUTION: "XZUW", RADIUS_CHECK: "RIK", TOLERANCE: "XZUW", BLOCK_TIME: "F", INTERFERENCE: "XZUW"}
+
+
+_REWRITTEN = frozenset("GXZUWIKR") | {",C", ",R", ",A"}  #: words a replacement writes anew (the rest as written)
+
+
+def macro_word(block: Block):
+    """The first word a replacement would write anew (geometry, motion code) whose value reads
+    a macro variable (``X[#504+6.]``), or None. A constant expression (``X[2*10.]``) reads none:
+    written as a number it means what it meant."""
+    if block.fields is not None:  # a canonical block: plain numbers only
+        return None
+    if all(type(value) is str for _, value in block.codes):
+        return None
+    from ..syntax.macro import variables_read
+
+    for word in block.words:
+        if word.letter in _REWRITTEN and type(word.value) is not str and variables_read(word.value):
+            return word
+    return None
+
+
+def _macro_refusal(word, where: Location, detail: str) -> SafetyError:
+    return SafetyError(
+        f"{word.text} reads a macro variable: compensating this block{detail} writes its value as a number, and "
+        "the block would no longer follow the variable; give --macro-values keep to leave such blocks "
+        "uncompensated, or --macro-values numbers to write them as numbers (the compensated program then holds "
+        "only for the values the program gives its variables)", where)
+
+
+def _rounded_up(tolerance: float) -> str:
+    """A tolerance (mm) a little above ``tolerance``, written with two significant digits."""
+    digits = 1 - math.floor(math.log10(tolerance))
+    return f"{math.ceil(tolerance * 1.001 * 10**digits) / 10**digits:g}"
+
+
+def _as_it_is(move: Move) -> Edit:
+    """An edit that writes a move out as it is (it shares its block with a change)."""
+    segment = segment_of(move)
+    t = sample_params(segment)
+    return Edit(move, [Target(segment, t, np.zeros((len(t), 2)))])
+
+
+def _where(file: str, step: Step) -> Location:
+    """Where a replaced block stands, for an error about it."""
+    return Location(file, step.block.line, None, step.block.text)
+
+
+def _cut_of(move: Move) -> Cut:
+    if move.kind == ARC:
+        return Cut(move.x0, move.z0, move.x1, move.z1, move.xc, move.zc, move.cw)
+    return Cut(move.x0, move.z0, move.x1, move.z1, rapid=move.kind == RAPID)
+
+
+def _half_turn(cuts: list[Cut], a: int, b: int) -> float:
+    """tan(phi / 2) of the turn phi from block a into block b (0 outside the list)."""
+    if a < 0 or b >= len(cuts):
+        return 0.0
+    t1 = _tangent(cuts[a], end=True)
+    t2 = _tangent(cuts[b], end=False)
+    phi = abs(math.atan2(t1[0] * t2[1] - t1[1] * t2[0], t1[0] * t2[0] + t1[1] * t2[1]))
+    return math.tan(min(phi, 3.0) / 2.0)
+
+
+def _tangent(cut: Cut, end: bool) -> tuple[float, float]:
+    if not cut.is_arc:
+        length = cut.length or 1.0
+        return ((cut.x1 - cut.x0) / length, (cut.z1 - cut.z0) / length)
+    x, z = (cut.x1, cut.z1) if end else (cut.x0, cut.z0)
+    rx, rz = x - cut.xc, z - cut.zc
+    norm = math.hypot(rx, rz) or 1.0
+    return (-rz / norm, rx / norm) if cut.cw else (rz / norm, -rx / norm)
+
+
+def _monotone(cuts: list[Cut], axis: int) -> int:
+    """+1 or -1 when the path never turns back along the axis, 0 when it does not move, None when it turns."""
+    values = np.concatenate([cut.sample(0.5) for cut in cuts])[:, axis] if cuts else np.zeros(1)
+    steps = np.diff(values)
+    rising, falling = bool(np.any(steps > 1e-7)), bool(np.any(steps < -1e-7))
+    if rising and falling:
+        return None
+    return 1 if rising else (-1 if falling else 0)
+
+
+def _numbers(cut: Cut) -> tuple[float, ...]:
+    return (cut.x0, cut.z0, cut.x1, cut.z1, cut.xc or 0.0, cut.zc or 0.0, float(bool(cut.cw)), float(cut.rapid))
+
+
+def _profile_for(settings: Settings):
+    from ..machine.profile import DEFAULT
+
+    return replace(DEFAULT, gcode_system=settings.system, diameter_x=settings.diameter,
+                   arc_radius_tolerance=settings.arc_radius_tolerance)
+
+
+def _group(value, system: str) -> str | None:
+    """The kind of a G word's code (gcodes.MOTION, ONE_SHOT...), or None when it is not known."""
+    if type(value) is not str:
+        return None
+    entry = G.SYSTEMS[system].get(G.code_key(float(value)))
+    return None if entry is None else entry[0]
+
+
+def _merge_continuous(targets: list[Target], gap: float) -> list[Target]:
+    """Pieces of one arc whose corrections meet are planned as one target."""
+    merged = [targets[0]]
+    for target in targets[1:]:
+        last = merged[-1]
+        if (
+            isinstance(last.nominal, Arc)
+            and isinstance(target.nominal, Arc)
+            and math.dist(last.end, target.start) <= gap
+        ):
+            a, b = last.nominal, target.nominal
+            end = b.end_radius
+            whole = Arc(a.xc, a.zc, a.r, a.theta0, a.sweep + b.sweep, None if abs(end - a.r) < 1e-12 else end)
+            share = a.sweep / whole.sweep
+            t = np.concatenate([last.t * share, share + target.t[1:] * (1 - share)])
+            d = np.concatenate([last.d, target.d[1:]])
+            merged[-1] = Target(whole, t, d)
+        else:
+            merged.append(target)
+    return merged

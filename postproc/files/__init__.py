@@ -1,0 +1,1 @@
+"""What postproc reads and writes: input files read once and bounded, outputs written whole or not at all."""

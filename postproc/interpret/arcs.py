@@ -1,0 +1,187 @@
+"""Motion and arcs: a motion block's end point, its move, an arc's centre as the control finds it.
+
+One phase of :class:`~postproc.interpret.interpreter.Interpreter`, as LinuxCNC's rs274ngc keeps
+each phase of its interpreter in a file of its own: the methods here work on the Interpreter's
+state and hold none of their own."""
+
+from __future__ import annotations
+
+import math
+
+from . import gcodes as G
+from .motion import ARC, CONTOUR, LINE, Move, RAPID, RUN, Step, THREAD
+from ..diagnostics import InterpretationError
+from ..syntax.blocks import Block
+from .state import _CYCLE_KIND, _MOTION_KIND, _Uninterpretable, _Words, _new_move
+
+
+class MotionAndArcs:
+    """Motion and arcs, mixed into :class:`~postproc.interpret.interpreter.Interpreter`."""
+
+    def _target(self, words: _Words) -> tuple[float | None, float | None]:
+        """The end point the block's X/Z/U/W words name (radius mm), None where unknown."""
+        values = words.values
+        diameter = 0.5 if self.profile.diameter_x else 1.0
+        incremental = not self.modal.absolute
+        x, z = self.x, self.z
+        if "X" in values:
+            value = values["X"] * diameter
+            x = (None if x is None else x + value) if incremental else value
+        elif "U" in values:
+            x = None if x is None else x + values["U"] * diameter
+        if "Z" in values:
+            value = values["Z"]
+            z = (None if z is None else z + value) if incremental else value
+        elif "W" in values:
+            z = None if z is None else z + values["W"]
+        if "X" in words.unknown or "U" in words.unknown:
+            x = None
+        if "Z" in words.unknown or "W" in words.unknown:
+            z = None
+        return x, z
+
+    def _role(self) -> str:
+        return CONTOUR if self._capture is not None else RUN
+
+    def _move(self, kind: str, block: Block, x1, z1, xc=None, zc=None, cw=None, exact: bool = True) -> Move:
+        modal = self.modal
+        return _new_move(Move, (kind, block.line, self.x, self.z, x1, z1, xc, zc, cw, self._role(), modal.feed,
+                                modal.per_rev, modal.comp, modal.tool, exact, modal.offset))
+
+    def _motion(self, block: Block, words: _Words) -> Step:
+        motion = self.modal.motion
+        if motion is None:
+            raise _Uninterpretable("the motion mode (G00/G01/G02/G03) is not known here")
+        values = words.values
+        x1, z1 = self._target(words)
+        unknown = [letter for letter in words.unknown if letter not in "FS"]
+        if unknown:
+            raise _Uninterpretable(
+                f"{', '.join(unknown)}: a value only known when the program runs",
+                self._col(block, unknown[0]),
+                unknown_axes="".join(a for a, v in (("X", x1), ("Z", z1)) if v is None),
+                target=(x1, z1),
+            )
+        if isinstance(motion, str):
+            self._need_feed(block, words, _CYCLE_KIND[motion], motion)
+            return self._single_cycle(block, words, motion, x1, z1)
+        kind = _MOTION_KIND[motion]
+        self._need_feed(block, words, kind, motion)
+        if motion in (G.G02, G.G03):
+            if self.modal.plane != 18:
+                raise _Uninterpretable(f"an arc in plane G{self.modal.plane}, not the lathe's ZX plane (G18)")
+            return self._arc(block, words.values, motion == G.G02, x1, z1)
+        for letter in ("R", "I", "K", ",A") if motion == G.G01 else ():
+            if letter in values:
+                raise _Uninterpretable(
+                    f"{letter} in a G01 block (chamfering or corner R by the control's parameter 3405, or direct drawing)",
+                    self._col(block, letter[-1]),
+                )
+        if "C" in values and "C" not in self.profile.axes:
+            raise _Uninterpretable("C in a motion block: chamfering by parameter, or a C axis", self._col(block, "C"))
+        move = self._move(kind, block, x1, z1, exact=None not in (x1, z1))
+        self.x, self.z = x1, z1
+        step = Step(block, (move,), self.modal)
+        self._note_corner(step, block, values)
+        return step
+
+    def _need_feed(self, block: Block, words: _Words, kind: str, meaning) -> None:
+        """A cutting move, a cycle's cut or a thread runs at the F in force (a thread's lead):
+        F0 is the control's alarm PS0011, wherever it was set; no F at all yet is a warning (the
+        control runs at the F an earlier program left, or alarms). A rapid needs none; a thread
+        whose lead an E word gives needs no F. ``meaning``: the motion mode or one-shot meaning
+        of the code that cuts (named in the message)."""
+        if kind == RAPID or "F" in words.unknown or (kind == THREAD and words.values.get("E")):
+            return
+        feed = self.modal.feed
+        if feed is None:
+            if not self._feed_warned:
+                self._feed_warned = True
+                what = "threading" if kind == THREAD else "feed move"
+                self.reporter.warn(f"{what} before any F word: the control uses the F an earlier program left, or "
+                                   "alarms (PS0011)", self._location(block, self._first_col(block)))
+            return
+        if feed != 0.0:
+            return
+        if kind in (LINE, ARC):
+            what = "feed move with feed rate F0"
+        else:
+            what = f"{'threading with lead' if kind == THREAD else 'cycle with feed rate'} F0"
+            key = next((key for key in words.g if self.table.get(key, (None, None))[1] == meaning), None)
+            if key is None and any(entry == (G.MOTION, meaning) for entry in self.table.values()):
+                key = G.motion_code(self.profile.gcode_system, meaning)  # modal: the code in force
+            if key is not None:
+                what = f"{G.code_name(key)}: {what}"
+        col = self._col(block, "F")
+        raise InterpretationError(f"{what} (FANUC alarm PS0011)",
+                                  self._location(block, self._first_col(block) if col is None else col))
+
+    def _arc(self, block: Block, values: dict[str, float], cw: bool, x1, z1) -> Step:
+        xc, zc = self._arc_centre(block, values, cw, x1, z1)
+        move = self._move(ARC, block, x1, z1, xc=xc, zc=zc, cw=cw)
+        self.x, self.z = x1, z1
+        step = Step(block, (move,), self.modal)
+        self._note_corner(step, block, values)
+        return step
+
+    def _arc_centre(self, block: Block | tuple, values: dict[str, float], cw: bool, x1, z1) -> tuple[float, float]:
+        """The centre of the arc from here to (x1, z1), or the control's alarm (``block`` may
+        be the reader's light tuple: only an alarm reads it)."""
+        if None in (self.x, self.z, x1, z1):
+            self.x, self.z = x1, z1
+            raise _Uninterpretable("an arc from or to a position that is not known", None,
+                                   unknown_axes="".join(a for a, v in (("X", x1), ("Z", z1)) if v is None))
+        x0, z0 = self.x, self.z
+        tolerance = self.profile.arc_radius_tolerance
+        if "R" in values:
+            radius = values["R"]
+            chord = math.hypot(x1 - x0, z1 - z0)
+            if chord == 0.0:
+                raise InterpretationError("R arc whose end point is its start point: the control cannot place it",
+                                          self._location(block, self._col(block, "R")))
+            if radius == 0.0:
+                raise InterpretationError("R arc of radius 0 (FANUC alarm PS0023)", self._location(block, self._col(block, "R")))
+            half = chord / 2.0
+            if half > abs(radius) + tolerance:
+                raise InterpretationError(
+                    f"R arc too short: the chord {chord:.4f} mm exceeds twice the radius {abs(radius):.4f} mm "
+                    f"(FANUC alarm PS0020)",
+                    self._location(block, self._col(block, "R")),
+                )
+            height = math.sqrt(max(radius * radius - half * half, 0.0))
+            # Left of the chord in the (x, z) plane is where theta grows: a G02 arc of at
+            # most 180 degrees turns about a centre on that side.
+            left = 1.0 if cw else -1.0
+            if radius < 0:
+                left = -left
+            ux, uz = (x1 - x0) / chord, (z1 - z0) / chord
+            xc = (x0 + x1) / 2.0 - left * height * uz
+            zc = (z0 + z1) / 2.0 + left * height * ux
+        else:
+            if "I" not in values and "K" not in values:
+                raise InterpretationError("G02/G03 without R or I/K (FANUC alarm PS0022)",
+                                          self._location(block, self._col(block, "G")))
+            xc = x0 + values.get("I", 0.0)
+            zc = z0 + values.get("K", 0.0)
+            r0 = math.hypot(x0 - xc, z0 - zc)
+            r1 = math.hypot(x1 - xc, z1 - zc)
+            if r0 == 0.0:
+                raise InterpretationError("arc of radius 0: I and K are both zero", self._location(block, self._col(block, "I")))
+            if abs(r0 - r1) > tolerance:
+                raise InterpretationError(
+                    f"arc end point is off the circle: radius {r0:.4f} mm at the start, {r1:.4f} mm at the end "
+                    f"(limit {tolerance} mm, FANUC alarm PS0020)",
+                    self._location(block, self._col(block, "I") if "I" in values else self._col(block, "K")),
+                )
+        return xc, zc
+
+    def _note_corner(self, step: Step, block: Block, values: dict) -> None:
+        """Remember a ,C or ,R word: the corner is cut when the next move is known."""
+        for kind in (",C", ",R"):
+            if kind in values:
+                self._fresh_corner = (len(step.moves) - 1, kind, values[kind])
+
+    def _single_cycle(self, block: Block, words: _Words, cycle: str, x1, z1) -> Step:
+        kind = _CYCLE_KIND[cycle]
+        move = self._move(kind, block, self.x, self.z, exact=None not in (self.x, self.z, x1, z1))
+        return Step(block, (move,), self.modal)

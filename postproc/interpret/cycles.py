@@ -1,0 +1,130 @@
+"""Canned cycles with a P..Q contour (G70-G73): the contour captured, checked and replayed.
+
+One phase of :class:`~postproc.interpret.interpreter.Interpreter`, as LinuxCNC's rs274ngc keeps
+each phase of its interpreter in a file of its own: the methods here work on the Interpreter's
+state and hold none of their own."""
+
+from __future__ import annotations
+
+from . import gcodes as G
+from .motion import CYCLE, Move, RAPID, REPLAY, Step
+from ..diagnostics import InterpretationError, Reporter
+from ..syntax.blocks import Block
+from .state import _Capture, _Contour, _Words
+
+
+class ContourCycles:
+    """Contour cycles, mixed into :class:`~postproc.interpret.interpreter.Interpreter`."""
+
+    def _contour_cycle(self, block: Block, words: _Words, meaning: str) -> Step:
+        values = words.values
+        name = G.code_name(next(key for key in words.g if self.table[key][1] == meaning))
+        if "P" not in values or "Q" not in values:
+            if meaning == G.FINISH:
+                raise InterpretationError(f"{name} needs P and Q: the first and last blocks of its contour",
+                                          self._location(block, self._col(block, "G")))
+            return Step(block, (), self.modal)  # first block of the two-block format: depth and retract only
+        if meaning != G.FINISH:  # roughing runs at the cycle's F (G70 at the F of its contour blocks)
+            self._need_feed(block, words, CYCLE, meaning)
+        p, q = int(values["P"]), int(values["Q"])
+        p_line = self._label_line(block, "P", p, name)
+        q_line = self._label_line(block, "Q", q, name)
+        if q_line < p_line:
+            raise InterpretationError(f"{name}: Q{q} (line {q_line}) comes before P{p} (line {p_line})",
+                                      self._location(block, self._col(block, "Q")))
+        start = (self.x, self.z)
+        cycle_move = self._move(CYCLE, block, self.x, self.z, exact=None not in start)
+        if meaning != G.FINISH:
+            moves: tuple[Move, ...] = (cycle_move,)
+        else:
+            moves = ()
+        recorded = self.contours.get((p, q))
+        if p_line > block.line:
+            contour = _Contour(p, q, block.line, start=start)
+            self._expect = (contour, self.modal, start, name, meaning)
+            if meaning == G.FINISH:
+                return Step(block, (), self.modal)
+            return Step(block, moves, self.modal)
+        if q_line > block.line:
+            self.reporter.warn(
+                f"{name}: its contour N{p}..N{q} runs from line {p_line} to line {q_line}, around the cycle block; "
+                "the blocks up to N{q} are not interpreted".replace("{q}", str(q)),
+                self._location(block, self._col(block, "P")),
+            )
+            self._skip_until = q
+            return Step(block, moves, self.modal, interpreted=False)
+        if recorded is None:
+            recorded = self._reread_contour(p, q, p_line, q_line, block)
+        if meaning == G.FINISH:
+            moves = self._replay(recorded, block)
+        return Step(block, moves, self.modal)
+
+    def _label_line(self, block: Block, letter: str, label: int, name: str) -> int:
+        count = self.labels.counts.get(label, 0)
+        if count == 0:
+            raise InterpretationError(
+                f"{name} {letter}{label}: no block N{label} in the program (FANUC alarm PS0060)",
+                self._location(block, self._col(block, letter)),
+            )
+        if count > 1:
+            lines = self.labels.lines[label]
+            raise InterpretationError(
+                f"{name} {letter}{label}: N{label} stands on {count} blocks (lines {lines[0]}, {lines[1]}...); "
+                "the contour is ambiguous",
+                self._location(block, self._col(block, letter)),
+            )
+        return self.labels.lines[label][0]
+
+    def _start_expected_contour(self, block: Block) -> None:
+        contour, modal, start, name, meaning = self._expect
+        self._expect = None
+        if block.label != contour.p:
+            self.reporter.warn(
+                f"{name} (line {contour.cycle_line}): its contour N{contour.p}..N{contour.q} does not follow the "
+                f"cycle block; the blocks up to N{contour.q} are not interpreted",
+                self._location(block, self._first_col(block)),
+            )
+            self._skip_until = contour.q
+            return
+        self._capture = _Capture(contour, modal, start)
+        self.contours[(contour.p, contour.q)] = contour
+
+    def _contour_block(self, block: Block) -> bool:
+        """Keep a contour block; after its Q block, resume at the cycle's start point."""
+        capture = self._capture
+        capture.contour.blocks.append(block)
+        if block.label != capture.contour.q:
+            return False
+        self._capture = None
+        self.modal = capture.resume
+        self.x, self.z = capture.resume_at
+        return True
+
+    def _reread_contour(self, p: int, q: int, p_line: int, q_line: int, block: Block) -> _Contour:
+        """A contour placed before its cycle that no earlier cycle recorded: read it again."""
+        if self._reread is None:
+            raise InterpretationError(f"contour N{p}..N{q} cannot be read again here", self._location(block, self._col(block, "P")))
+        contour = _Contour(p, q, block.line, blocks=list(self._reread(p_line, q_line)))
+        self.contours[(p, q)] = contour
+        return contour
+
+    def _replay(self, contour: _Contour, block: Block) -> tuple[Move, ...]:
+        """G70: run the contour's blocks from here as the finishing path, then return."""
+        start = (self.x, self.z)
+        saved_modal = self.modal
+        replay = type(self)(self.profile, Reporter(), self.file, self.labels)  # an Interpreter
+        replay.x, replay.z = start
+        replay.modal = self.modal
+        replay.variables = dict(self.variables)
+        replay._work = self._work
+        moves: list[Move] = []
+        for step in replay.run(contour.blocks):
+            for move in step.moves:
+                moves.append(move._replace(role=REPLAY))
+        end = (replay.x, replay.z)
+        if end != start:
+            moves.append(Move(RAPID, block.line, end[0], end[1], start[0], start[1], feed=saved_modal.feed,
+                              per_rev=saved_modal.per_rev, comp=saved_modal.comp, tool=saved_modal.tool,
+                              exact=None not in start + end))
+        self.x, self.z = start
+        return tuple(moves)

@@ -1,0 +1,1 @@
+"""What postproc knows about the machine and its control: the profile, the number grid, the bounds."""

@@ -1,0 +1,253 @@
+"""Machine profiles: what postproc must know about the control and the machine.
+
+A profile is a TOML file (read with :mod:`tomllib`); the embedded default is a FANUC
+18i-T-like two-axis lathe, metric, diameter programming, G-code system A, IS-B increments.
+Everything the interpreter, the segmenter and the safety checks assume about a machine
+comes from here, so a shop describes its lathe once.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from . import bounds
+from .bounds import MAX_TOLERANCE
+from ..diagnostics import Location, OptionError
+
+INCREMENTS = {  # least input increment per system: (mm, inch)
+    "IS-A": (0.01, 0.001),
+    "IS-B": (0.001, 0.0001),
+    "IS-C": (0.0001, 0.00001),
+}
+
+
+@dataclass(frozen=True, slots=True)
+class MachineProfile:
+    """A lathe and its control. Lengths in mm unless the name says otherwise."""
+
+    name: str = "fanuc-18i-t"
+    controller: str = "FANUC Series 18i-TB"
+    gcode_system: str = "A"  #: FANUC lathe G-code system A, B or C
+    diameter_x: bool = True  #: X (and U) are diameters
+    input_increment: str = "IS-B"  #: least input increment system
+    #: A length without a decimal point is in mm or inches (FANUC parameter 3401 bit 0, DPI), not
+    #: in least input increments. None: not stated; read as the FANUC default (increments), and
+    #: a program that mixes both spellings is refused by compensate.
+    calculator_input: bool | None = None
+    label_skip: bool = True  #: after the opening %, the control skips up to the first end of block
+    axes: str = "XZ"  #: the axes this lathe has
+    arc_radius_tolerance: float = 0.01  #: the control's arc check: start and end radii may differ by this
+    max_arc_radius: float = 5000.0  #: an arc above this radius is emitted as lines
+    min_block_time_s: float = 0.001  #: shortest block the look-ahead digests at full feed
+    max_spindle_rpm: float = 4000.0  #: the spindle's top speed (bounds G96 near the axis)
+    nose_radius_mm: float = 0.4  #: no block under G41/G42 shorter than this (the interference check)
+    x_limits: tuple[float, float] | None = None  #: soft limits of x (radius mm, work coordinates); None: not set
+    z_limits: tuple[float, float] | None = None  #: soft limits of z (mm, work coordinates)
+    tolerance: float | None = None  #: default tolerance; None: the rule of docs/formats.md §8.1
+    max_correction: float = 0.1  #: largest correction allowed anywhere
+    model_max_age_days: float = 30.0  #: a saved model measured longer ago than this gets a warning
+    plugin_time_limit_s: float = 60.0  #: a compensator call that runs longer is stopped and named
+    output_decimals_mm: int = 3  #: decimals written for mm values
+    output_decimals_inch: int = 4  #: decimals written for inch values
+    spindle_speed_fluctuation: bool = False
+    extra: dict[str, Any] = field(default_factory=dict, compare=False)
+
+    def increment(self, inch: bool) -> float:
+        """Least input increment in program units."""
+        return INCREMENTS[self.input_increment][1 if inch else 0]
+
+    def resolution_mm(self, inch: bool) -> float:
+        """Output resolution in millimetres."""
+        decimals = self.output_decimals_inch if inch else self.output_decimals_mm
+        return 10.0**-decimals * (25.4 if inch else 1.0)
+
+    def default_tolerance(self, inch: bool) -> float:
+        """docs/formats.md §8.1: 0.001 mm, or twice the output resolution where that is larger.
+
+        An inch program written to 0.0001 in (2.54 um) cannot be held to 1 um, so it gets
+        0.00508 mm. A metric program written to 0.001 mm can: the segmenter picks, among the
+        grid points around each vertex, the one nearest the path, so rounding spends only
+        part of the tolerance, and 1 um is kept; coarser metric output gets twice its step.
+        """
+        if self.tolerance is not None:
+            return self.tolerance
+        step = self.resolution_mm(inch)
+        return min(max(0.001, 2.0 * step) if (inch or step > 0.001) else 0.001, MAX_TOLERANCE)
+
+
+DEFAULT = MachineProfile()
+
+MAX_BYTES = 1024 * 1024  #: a machine profile is a page of text
+
+_FIELDS = {f.name: f for f in dataclasses.fields(MachineProfile) if f.name != "extra"}
+
+
+def load(path: str) -> MachineProfile:
+    """Read a profile from TOML; unknown keys are refused (``x-`` keys are kept aside)."""
+    from ..files import inputs
+
+    data, text = inputs.read_toml(path, MAX_BYTES, OptionError, "a machine profile")
+    return from_mapping(data, path, text)
+
+
+def from_mapping(data: dict[str, Any], origin: str = "<profile>", text: str | None = None) -> MachineProfile:
+    """A profile from a TOML document; ``text``, the document as written, lets an error point at
+    the key's line and column."""
+    from ..files.inputs import did_you_mean, toml_key
+
+    written = {key.replace("-", "_"): key for key in data}
+
+    def at(name: str) -> Location:
+        return toml_key(origin, text, written.get(name, name)) if text is not None else Location(origin)
+
+    values: dict[str, Any] = {}
+    extra: dict[str, Any] = {}
+    for key, value in data.items():
+        name = key.replace("-", "_")
+        if key.startswith("x-") or key == "simulation":  # the virtual machine's own table
+            extra[key] = value
+            continue
+        if name not in _FIELDS:
+            raise OptionError(f"unknown key {key!r} in machine profile{did_you_mean(name, _FIELDS)}", at(name))
+        values[name] = _checked(name, value, at(name))
+    profile = MachineProfile(**values, extra=extra)
+    bounds.max_correction(profile.max_correction, "max_correction =", at("max_correction"))
+    if profile.tolerance is not None:
+        bounds.tolerance(profile.tolerance, profile.max_correction, "tolerance =", at("tolerance"))
+    if profile.gcode_system not in ("A", "B", "C"):
+        raise OptionError("gcode_system must be A, B or C", at("gcode_system"))
+    if profile.input_increment not in INCREMENTS:
+        raise OptionError(f"input_increment must be one of {', '.join(INCREMENTS)}", at("input_increment"))
+    return profile
+
+
+def _checked(name: str, value: Any, where: Location) -> Any:
+    default = getattr(DEFAULT, name)
+    if name in ("x_limits", "z_limits"):
+        default = (0.0, 0.0)
+    if name == "calculator_input":
+        default = False
+    if isinstance(default, tuple):
+        if not (isinstance(value, list) and len(value) == 2 and all(_is_number(v) for v in value)):
+            raise OptionError(f"{name} must be a list of two numbers", where)
+        low, high = float(value[0]), float(value[1])
+        if not (math.isfinite(low) and math.isfinite(high)):
+            raise OptionError(f"{name}: the limits must be finite numbers", where)
+        if not low < high:
+            raise OptionError(f"{name}: the first limit must be below the second", where)
+        return (low, high)
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            raise OptionError(f"{name} must be true or false", where)
+        return value
+    if isinstance(default, int) and not isinstance(default, bool):
+        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+            raise OptionError(f"{name} must be a whole number", where)
+        _within(name, value, where)
+        return value
+    if isinstance(default, float) or name == "tolerance":
+        if not _is_number(value) or not math.isfinite(value) or value <= 0:
+            raise OptionError(f"{name} must be a positive number", where)
+        _within(name, value, where)
+        return float(value)
+    if not isinstance(value, str):
+        raise OptionError(f"{name} must be a string", where)
+    return value
+
+
+#: The sane range of each number a profile holds: beyond it, a typo or a unit slip (the
+#: tolerance and the maximum correction: :mod:`postproc.machine.bounds`).
+_RANGES = {
+    "arc_radius_tolerance": (0.0, 1.0, "mm"),
+    "max_arc_radius": (0.0, 100_000.0, "mm"),
+    "min_block_time_s": (0.0, 1.0, "s"),
+    "max_spindle_rpm": (0.0, 100_000.0, "rpm"),
+    "nose_radius_mm": (0.0, 10.0, "mm"),
+    "model_max_age_days": (0.0, 36_500.0, "days"),
+    "plugin_time_limit_s": (0.0, 86_400.0, "s"),
+    "output_decimals_mm": (2, 6, "decimals"),
+    "output_decimals_inch": (3, 7, "decimals"),
+}
+
+
+def _within(name: str, value: float, where: Location) -> None:
+    if name in _RANGES:
+        low, high, unit = _RANGES[name]
+        if not low <= value <= high:
+            raise OptionError(f"{name} = {value:g}: out of range for a lathe (at most {high:g} {unit}"
+                              f"{f', at least {low:g}' if low else ''})", where)
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def to_toml(profile: MachineProfile) -> str:
+    """The profile as TOML that :func:`load` reads back (unset limits are left out)."""
+    lines = [f"# machine profile {profile.name!r}"]
+    for name in _FIELDS:
+        value = getattr(profile, name)
+        if value is not None:
+            lines.append(f"{name} = {_toml_value(value)}")
+    return "\n".join(lines) + "\n"
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, tuple):
+        return f"[{value[0]!r}, {value[1]!r}]"
+    return repr(value)
+
+
+#: What each key means, for the starter profile (docs/formats.md §15 says it in full).
+MEANINGS = {
+    "name": "The profile's name: saved models record it.",
+    "controller": "The control, for people.",
+    "gcode_system": "FANUC lathe G-code system: A, B or C.",
+    "diameter_x": "X and U are diameters (false: radius programming).",
+    "input_increment": "Least input increment: IS-A (0.01 mm), IS-B (0.001 mm), IS-C (0.0001 mm).",
+    "calculator_input": "true: a length without a decimal point is in mm or inches (parameter 3401 DPI); false: in "
+                        "increments. Unset: compensate refuses a program that mixes both spellings.",
+    "label_skip": "The control skips from the opening % to the first end of block.",
+    "axes": "The axes the lathe has; any other axis address is refused.",
+    "arc_radius_tolerance": "The control's arc check: start and end radius may differ by this (mm).",
+    "max_arc_radius": "An arc above this radius is written as lines (mm).",
+    "min_block_time_s": "No block shorter than the feed covers in this time (s).",
+    "max_spindle_rpm": "The spindle's top speed (bounds G96 near the axis).",
+    "nose_radius_mm": "No block under G41/G42 shorter than this (mm).",
+    "x_limits": "Soft limits of x [low, high], radius mm, work coordinates: a compensated move beyond is refused.",
+    "z_limits": "Soft limits of z [low, high], mm, work coordinates.",
+    "tolerance": "Default --tolerance, mm (0.002 is 2 um). Unset: 0.001 mm, or twice the output resolution.",
+    "max_correction": "Default --max-correction, mm: a larger correction is refused.",
+    "model_max_age_days": "A saved model measured longer ago than this gets a warning.",
+    "plugin_time_limit_s": "A compensator call running longer is stopped and named (s).",
+    "output_decimals_mm": "Decimals written in metric programs.",
+    "output_decimals_inch": "Decimals written in inch programs.",
+    "spindle_speed_fluctuation": "Read and shown; no effect yet.",
+}
+#: A value to uncomment for each key that is unset by default.
+_UNSET_EXAMPLES = {"calculator_input": "true", "x_limits": "[-5.0, 265.0]", "z_limits": "[-450.0, 450.0]",
+                   "tolerance": "0.002"}
+
+
+def starter(name: str) -> str:
+    """A commented machine profile to edit: every key with what it means and its default
+    (the keys unset by default commented out, with a value to start from). Read back as it
+    is, it is the embedded default under another name."""
+    import textwrap
+
+    lines = ["# postproc machine profile (docs/formats.md §15). Every key is shown with its default;",
+             "# change what differs on your lathe and control, delete the rest if you like.",
+             "# Check it with: postproc profile show --machine THIS-FILE", ""]
+    for key in _FIELDS:
+        lines += textwrap.wrap(MEANINGS[key], 96, initial_indent="# ", subsequent_indent="# ")
+        value = name if key == "name" else getattr(DEFAULT, key)
+        lines.append(f"{key} = {_toml_value(value)}" if value is not None else f"# {key} = {_UNSET_EXAMPLES[key]}")
+        lines.append("")
+    return "\n".join(lines)

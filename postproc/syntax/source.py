@@ -1,0 +1,276 @@
+"""A part program's bytes: read once, kept in an anonymous temporary file, named as the user
+named it.
+
+Every program is read from its source exactly once (a pipe or a FIFO cannot be read again,
+and a file could change between two reads), bounded in size, and copied into a temporary
+file that has no name: a program can then be read as often as its interpretation needs (a
+cycle's P..Q contour may lie before the cycle; the sequence numbers are scanned) without being
+held in memory, and a run stopped at any moment, even by SIGKILL, leaves no copy behind.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import re
+import stat
+import sys
+import tempfile
+from functools import cached_property
+from typing import BinaryIO, Iterator
+
+from ..diagnostics import STDIN_NAME, Location, OutputError, ProgramError
+
+CHUNK = 1 << 20
+MAX_PROGRAM_BYTES = 2 * 1024**3  #: 2 GiB: far beyond any control's memory
+
+_LABEL = re.compile(rb"(?m)^[ \t]*(?:/[1-9]?[ \t]*)?[Nn][ \t]*(\d+)")
+# Searched in lower-cased text, each starting with a literal: an alternation or a
+# case-blind pattern would be tried at every G of the program.
+_GOTO = re.compile(rb"goto[ \t]*(\d+|[#\[])")
+# The control ignores spaces, even inside a number: ``M 0 98 P 3 1000`` calls O1000 three times.
+_CALLS = tuple(
+    re.compile(rb"%s[ \t]*(?:0[ \t]*)*%s[ \t]*%s(?![ \t]*\d)[^\r\n(]*?p[ \t]*(\d[\d \t]*)" % code)
+    for code in ((b"m", b"9", b"8"), (b"g", b"6", b"5"))
+)
+
+
+class LabelIndex:
+    """Which labels a GOTO may jump to, which programs are called from where, and (scanned
+    only when a cycle asks) where each sequence number stands."""
+
+    def __init__(self, goto_targets=None, computed_goto: bool = False, calls=None, scan=None):
+        self.goto_targets: set[int] = goto_targets or set()
+        self.computed_goto = computed_goto  #: a GOTO whose target is an expression: any label may be a target
+        self.calls: dict[int, int] = calls or {}  #: program number -> places that call it (M98/G65)
+        self._scan = scan
+        self._lines: dict[int, list[int]] | None = None if scan else {}
+        self._counts: dict[int, int] | None = None if scan else {}
+
+    def _labels(self) -> None:
+        if self._lines is None:
+            self._lines, self._counts = self._scan()
+
+    @property
+    def lines(self) -> dict[int, list[int]]:
+        """Label -> its first two line numbers."""
+        self._labels()
+        return self._lines
+
+    @property
+    def counts(self) -> dict[int, int]:
+        """Label -> how many blocks carry it."""
+        self._labels()
+        return self._counts
+
+
+class Source:
+    """A program to read: a path, or ``-`` for standard input."""
+
+    def __init__(self, path: str):
+        self.name = STDIN_NAME if path == "-" else path
+        self.path = path
+        self._file = tempfile.TemporaryFile(prefix="postproc-")  # anonymous: nothing to clean up after a kill
+        self.size = 0
+        try:
+            if path == "-":
+                self._copy_stream(sys.stdin.buffer if sys.stdin is not None else None)
+            else:
+                self._copy_file(path)
+        except BaseException:
+            self._file.close()
+            raise
+        self._file.flush()
+
+    @classmethod
+    def from_text(cls, text: str | bytes, name: str = "<text>") -> "Source":
+        """A source for a program held in memory (the Python API)."""
+        data = text.encode("utf-8", "surrogateescape") if isinstance(text, str) else text
+        source = cls.__new__(cls)
+        source.name = source.path = name
+        source._file = tempfile.TemporaryFile(prefix="postproc-")
+        source._file.write(data)
+        source._file.flush()
+        source.size = len(data)
+        return source
+
+    def _copy_file(self, path: str) -> None:
+        try:
+            fd = os.open(path, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))
+        except OSError as exc:
+            raise ProgramError(f"cannot read program: {exc.strerror}", Location(self.name)) from None
+        try:
+            info = os.fstat(fd)
+            if stat.S_ISDIR(info.st_mode):
+                raise ProgramError("is a directory, not a program", Location(self.name))
+            regular = stat.S_ISREG(info.st_mode)
+            if regular and info.st_size > MAX_PROGRAM_BYTES:
+                raise ProgramError(f"program is {info.st_size} bytes; the limit is {MAX_PROGRAM_BYTES}",
+                                   Location(self.name))
+            with open(fd, "rb", buffering=0, closefd=False) as raw:
+                self._copy(raw, regular)
+        except OSError as exc:
+            raise ProgramError(f"cannot read program: {exc.strerror}", Location(self.name)) from None
+        finally:
+            os.close(fd)
+
+    def _copy_stream(self, stream) -> None:
+        if stream is None:
+            raise ProgramError("cannot read program: standard input is closed", Location(self.name))
+        try:
+            self._copy(stream, False)
+        except OSError as exc:
+            raise ProgramError(f"cannot read program: {exc.strerror}", Location(self.name)) from None
+
+    def _copy(self, raw, regular: bool) -> None:
+        """Copy the input into the spool file, at most MAX_PROGRAM_BYTES. A stream that is not a
+        regular file (a device, a pipe) is stopped at its first NUL byte: text programs have none,
+        and ``/dev/zero`` or ``/dev/urandom`` would otherwise be read to the limit."""
+        while chunk := raw.read(CHUNK):
+            if not regular and b"\x00" in chunk:
+                raise self._binary(chunk[: chunk.index(b"\x00")])
+            if self.size + len(chunk) > MAX_PROGRAM_BYTES:
+                raise ProgramError(f"more than {MAX_PROGRAM_BYTES} bytes: no control holds such a program (a device "
+                                   "or a stream that does not end?)", Location(self.name))
+            self._keep(chunk)
+            self.size += len(chunk)
+
+    def _keep(self, chunk: bytes) -> None:
+        try:
+            self._file.write(chunk)
+        except OSError as exc:
+            from ..files.output import explain
+
+            raise OutputError(f"cannot keep a copy of the program in {tempfile.gettempdir()} (TMPDIR): "
+                              f"{explain(exc)}", Location(self.name)) from None
+
+    def _binary(self, head: bytes) -> ProgramError:
+        """The error for a stream with a NUL byte, placed at it (after what was copied so far)."""
+        self._keep(head)
+        self._file.flush()
+        self.size += len(head)
+        line, last = 1, b""
+        for chunk in self.chunks():
+            line += count_lines(chunk, 0, len(chunk))
+            last = chunk
+        text = last[max(last.rfind(b"\n"), last.rfind(b"\r")) + 1 :].decode("utf-8", "surrogateescape")
+        return ProgramError("a NUL byte: this is binary data, not a text program; nothing more was read",
+                            Location(self.name, line, len(text) + 1, text))
+
+    def open_binary(self) -> BinaryIO:
+        """A reader of its own (its own position) over the program's bytes."""
+        return io.BufferedReader(_View(self._file.fileno(), self.size), CHUNK)
+
+    def lines(self) -> Iterator[str]:
+        """Each line with its ending (LF, CRLF or a lone CR); bytes that are not UTF-8 survive as
+        surrogates, so writing a line back gives its bytes again."""
+        with self.open_binary() as raw:
+            yield from io.TextIOWrapper(raw, encoding="utf-8", errors="surrogateescape", newline="")
+
+    @cached_property
+    def labels(self) -> LabelIndex:
+        """GOTO targets and subprogram calls, found by a quick scan; label places on demand."""
+        targets: set[int] = set()
+        calls: dict[int, int] = {}
+        computed = False
+        for chunk in self.chunks():
+            chunk = chunk.lower()
+            called = {match.start(1): match.group(1) for pattern in _CALLS for match in pattern.finditer(chunk)}
+            for spelled in called.values():  # one P word is one call, whichever code reads it
+                number = int(spelled.replace(b" ", b"").replace(b"\t", b""))
+                number = number % 10000 if number > 9999 else number  # M98 P31234: 3 times O1234
+                calls[number] = calls.get(number, 0) + 1
+            for match in _GOTO.finditer(chunk):
+                target = match.group(1)
+                if target.isdigit():
+                    targets.add(int(target))
+                else:
+                    computed = True
+        return LabelIndex(targets, computed, calls, scan=self._label_places)
+
+    def _label_places(self) -> tuple[dict[int, list[int]], dict[int, int]]:
+        """Scan the whole program, a chunk at a time, for the lines of its sequence numbers."""
+        lines: dict[int, list[int]] = {}
+        counts: dict[int, int] = {}
+        line = 1
+        for chunk in self.chunks():
+            last = 0
+            for match in _LABEL.finditer(chunk):
+                start = match.start()
+                line += count_lines(chunk, last, start)
+                last = start
+                label = int(match.group(1))
+                counts[label] = counts.get(label, 0) + 1
+                places = lines.setdefault(label, [])
+                if len(places) < 2:
+                    places.append(line)
+            line += count_lines(chunk, last, len(chunk))
+        return lines, counts
+
+    def chunks(self, size: int = 1 << 20) -> Iterator[bytes]:
+        """The file in pieces that end at a line ending, so that no line is split."""
+        with self.open_binary() as raw:
+            rest = b""
+            while True:
+                data = raw.read(size)
+                if not data:
+                    if rest:
+                        yield rest
+                    return
+                data = rest + data
+                cut = max(data.rfind(b"\n"), data.rfind(b"\r"))
+                if cut < 0 or (data[cut:cut + 1] == b"\r" and cut == len(data) - 1):
+                    rest = data
+                    continue
+                yield data[: cut + 1]
+                rest = data[cut + 1 :]
+
+    def read_bytes(self) -> bytes:
+        with self.open_binary() as raw:
+            return raw.read()
+
+    def close(self) -> None:
+        self._file.close()
+
+    def __enter__(self) -> "Source":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def count_lines(data: bytes, start: int, stop: int) -> int:
+    """Line endings in ``data[start:stop]``: LF, CRLF and a lone CR each end one line."""
+    return data.count(b"\n", start, stop) + data.count(b"\r", start, stop) - data.count(b"\r\n", start, stop)
+
+
+class _View(io.RawIOBase):
+    """Reads a file descriptor from a position of its own (``pread``), so that several readers
+    of one spooled program never move each other's place."""
+
+    def __init__(self, fd: int, size: int):
+        super().__init__()
+        self._fd, self._size, self._at = fd, size, 0
+
+    def readable(self) -> bool:
+        return True
+
+    def seekable(self) -> bool:
+        return True
+
+    def readinto(self, buffer) -> int:
+        count = min(len(buffer), self._size - self._at)
+        if count <= 0:
+            return 0
+        data = os.pread(self._fd, count, self._at)
+        buffer[: len(data)] = data
+        self._at += len(data)
+        return len(data)
+
+    def seek(self, offset: int, whence: int = io.SEEK_SET) -> int:
+        base = {io.SEEK_SET: 0, io.SEEK_CUR: self._at, io.SEEK_END: self._size}[whence]
+        self._at = max(0, base + offset)
+        return self._at
+
+    def tell(self) -> int:
+        return self._at

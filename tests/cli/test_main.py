@@ -1,0 +1,234 @@
+"""The command line: stdout, stderr and exit codes, each asserted on its own."""
+
+from __future__ import annotations
+
+import pytest
+
+from support.corpus import corpus
+
+HEMISHELL = b"%\nO1000 (HEMISHELL)\nG18 G21 G99\nT0101\nG00 X0. Z60.\nG01 Z57.15 F0.1\nG03 X114.3 Z0. I0. K-57.15\nG00 X150.\nM30\n%\n"
+
+
+NOTHING_APPLIED = ("postproc: warning: no compensator was given (--plugin or --model): nothing was applied; the "
+                   "program is written back unchanged\n")
+
+
+def test_compensate_without_compensator_is_the_identity_and_says_so(run, tmp_path):
+    """An empty $PLUGIN in a post-processing script must not send an uncompensated part silently."""
+    source = tmp_path / "part.nc"
+    source.write_bytes(HEMISHELL)
+    result = run("compensate", str(source))
+    assert (result.exit_code, result.stdout_bytes, result.stderr) == (0, HEMISHELL, NOTHING_APPLIED)
+    target = tmp_path / "out.nc"
+    result = run("compensate", str(source), "-o", str(target))
+    assert (result.exit_code, result.stdout_bytes) == (0, b"")
+    assert target.read_bytes() == HEMISHELL
+    result = run("compensate", "-", input=HEMISHELL)
+    assert result.stdout_bytes == HEMISHELL
+
+
+def test_out_dir_writes_each_input_under_its_own_name(run, tmp_path):
+    programs = corpus("fanuc")[:3]
+    result = run("compensate", *map(str, programs), "--out-dir", str(tmp_path))
+    assert result.exit_code == 0, result.stderr
+    for path in programs:
+        assert (tmp_path / path.name).read_bytes() == path.read_bytes()
+
+
+def test_path_writes_the_csv_contract(run):
+    result = run("path", input=HEMISHELL)
+    assert result.exit_code == 0
+    lines = result.stdout.splitlines()
+    assert lines[0] == "line,kind,x_start,z_start,x_end,z_end,x_center,z_center,direction"
+    assert lines[1] == "5,rapid,,,0.000000,60.000000,,,"
+    assert lines[2] == "6,line,0.000000,60.000000,0.000000,57.150000,,,"
+    assert lines[3] == "7,arc,0.000000,57.150000,57.150000,0.000000,0.000000,0.000000,ccw"
+    assert lines[4] == "8,rapid,57.150000,0.000000,75.000000,0.000000,,,"
+    assert len(lines) == 5
+
+
+def test_check_talks_on_stderr_only(run):
+    result = run("check", input=HEMISHELL)
+    assert result.exit_code == 0
+    assert result.stdout == ""
+    assert result.stderr == "<stdin>: ok: 10 lines, 4 moves, 0 warnings\n"
+
+
+def test_program_error_has_position_source_line_and_caret(run):
+    result = run("compensate", input=b"G00 X1. Z1.\nG01 X2..\n")
+    assert result.exit_code == 3
+    assert result.stdout_bytes == b""
+    assert result.stderr == (
+        "<stdin>:2:8: error: a second decimal point in one number (FANUC alarm PS0007)\n"
+        "    G01 X2..\n"
+        "           ^\n"
+    )
+
+
+def test_missing_input_is_a_whole_file_error(run, tmp_path):
+    result = run("check", str(tmp_path / "nope.nc"))
+    assert result.exit_code == 3
+    assert result.stderr.startswith(f"{tmp_path / 'nope.nc'}: error: cannot read program")
+
+
+def test_unwritable_output_leaves_nothing_and_says_why(run, tmp_path):
+    result = run("compensate", "-o", str(tmp_path / "missing" / "out.nc"), input=HEMISHELL)
+    assert result.exit_code == 3
+    assert "nothing was written" in result.stderr
+    assert result.stdout_bytes == b""
+
+
+def test_usage_errors_exit_2(run, tmp_path):
+    result = run("compensate", "--ballbar", "x.csv", input=HEMISHELL)
+    assert result.exit_code == 2
+    assert "no compensator" in result.stderr
+    assert result.stdout_bytes == b""
+    result = run("compensate", "a.nc", "b.nc")
+    assert result.exit_code == 2
+    result = run("compensate", "--mode", "spline", input=HEMISHELL)
+    assert result.exit_code == 2
+
+
+def test_version_and_help(run):
+    assert run("--version").stdout.startswith("postproc, version ")
+    assert "compensate" in run("--help").stdout
+
+
+def test_log_copies_messages_to_a_file(run, tmp_path):
+    log = tmp_path / "postproc.log"
+    result = run("--log", str(log), "check", input=HEMISHELL)
+    assert result.exit_code == 0
+    assert log.read_text() == "<stdin>: ok: 10 lines, 4 moves, 0 warnings\n"
+
+
+# A shop program with axis words of both spellings: X86. and Z0.25, then G01X118 and G00Z220.
+MIXED = (b"%\nO0001\nG21 G99 G18\nT0101\nG00 X120. Z5.\nG01 X86. Z0.25 F0.2\nG01X118\nG00Z220\n"
+         b"G01 X104 Z-50. F0.2\nM30\n%\n")
+
+
+def _mixed_model(run, tmp_path):
+    from support import SAMPLES
+
+    model = tmp_path / "model.json"
+    assert run("fit", "--plugin", "parametric", "--ballbar", str(SAMPLES / "ballbar/v40r-100-ccw.csv"),
+               "--ballbar", str(SAMPLES / "ballbar/v40r-100-cw.csv"), "--option", "extrapolate=true",
+               "-o", str(model)).exit_code == 0
+    return str(model)
+
+
+def test_check_warns_at_the_first_plain_axis_word_of_a_mixed_program(run):
+    result = run("check", input=MIXED)
+    assert result.exit_code == 0
+    assert result.stdout == ""
+    lines = result.stderr.splitlines()
+    assert lines[0].startswith("<stdin>:7:4: warning: X118 has no decimal point: "
+                               "read in least input increments (IS-B) it is 0.118 mm; on a control with "
+                               "calculator-type input (parameter 3401 bit 0, DPI) it is 118 mm")
+    assert lines[1:3] == ["    G01X118", "       ^"]
+    assert lines[-1] == "<stdin>: ok: 11 lines, 5 moves, 1 warnings"
+
+
+def test_compensate_refuses_a_mixed_program_until_the_profile_says_how_the_control_reads_it(run, tmp_path):
+    model = _mixed_model(run, tmp_path)
+    result = run("compensate", "--model", model, input=MIXED)
+    assert result.exit_code == 4
+    assert result.stdout_bytes == b""
+    first = result.stderr.splitlines()[0]
+    assert first.startswith("<stdin>:7:4: error: X118 has no decimal point")
+    assert first.endswith("state which in the machine profile, calculator_input = true or false")
+    for stated, words in (("true", ("X117.994Z0.249", "X103.987 Z-50.006")), ("false", ("X0.114Z0.249", "X0.1 Z-50.006"))):
+        machine = tmp_path / f"{stated}.toml"
+        machine.write_text(f"calculator_input = {stated}\n")
+        result = run("compensate", "--model", model, "--machine", str(machine), input=MIXED)
+        assert result.exit_code == 0, result.stderr
+        assert "warning" not in result.stderr
+        out = result.stdout
+        assert all(word in out for word in words), out
+        assert run("check", "--machine", str(machine), input=result.stdout_bytes).exit_code == 0
+
+
+def test_a_program_with_decimal_points_throughout_needs_no_word_on_calculator_input(run, tmp_path):
+    model = _mixed_model(run, tmp_path)
+    result = run("compensate", "--model", model, input=HEMISHELL)
+    assert result.exit_code == 0, result.stderr
+    assert "decimal point" not in result.stderr
+
+
+def test_a_program_without_any_decimal_point_is_refused_until_the_profile_says_how_the_control_reads_it(
+        run, tmp_path):
+    """Its rewritten blocks get decimal points, which mean the same on both controls, while its
+    plain words mean 1000 times more on one of them: a whole program of plain words is as
+    ambiguous as a mixed one."""
+    model = _mixed_model(run, tmp_path)
+    plain = b"G21 G99 G18\nG00 X120000 Z5000\nG01 X86000 Z250 F0.2\nG04 X1000\nG28 U0 W0\nM30\n"
+    result = run("compensate", "--model", model, input=plain)
+    assert result.exit_code == 4 and result.stdout_bytes == b""
+    assert result.stderr.startswith("<stdin>:2:5: error: X120000 has no decimal point: read in least input "
+                                    "increments (IS-B) it is 120 mm; on a control with calculator-type input")
+    checked = run("check", input=plain)
+    assert checked.exit_code == 0 and "<stdin>:2:5: warning: X120000 has no decimal point" in checked.stderr
+    machine = tmp_path / "increments.toml"
+    machine.write_text("calculator_input = false\n")
+    result = run("compensate", "--model", model, "--machine", str(machine), input=plain)
+    assert result.exit_code == 0, result.stderr
+    assert "decimal point" not in result.stderr and "X86." in result.stdout
+
+
+def test_calculator_input_is_unset_unless_the_profile_states_it(run, tmp_path):
+    shown = run("profile", "show")
+    assert shown.exit_code == 0 and "calculator_input" not in shown.stdout
+    machine = tmp_path / "m.toml"
+    machine.write_text("calculator_input = 1\n")
+    result = run("check", "--machine", str(machine), input=HEMISHELL)
+    assert result.exit_code == 3
+    assert "calculator_input must be true or false" in result.stderr
+
+
+def test_jobs_are_capped_at_the_programs_and_cpus_and_say_so(run, tmp_path):
+    import os
+
+    programs = corpus("fanuc")[:2]
+    cpus = len(os.sched_getaffinity(0))
+    result = run("compensate", *map(str, programs), "--out-dir", str(tmp_path), "--jobs", "64")
+    assert result.exit_code == 0, result.stderr
+    runs = "1 process runs" if cpus == 1 else "2 processes run"
+    assert result.stderr.splitlines()[0] == (f"postproc: warning: --jobs 64: {runs} (2 programs, {cpus} "
+                                             f"CPU{'s' * (cpus != 1)})")
+    absurd = run("compensate", *map(str, programs), "--out-dir", str(tmp_path / "x"), "--jobs", "100000")
+    assert absurd.exit_code == 2 and not (tmp_path / "x").exists()
+    assert run("compensate", *map(str, programs), "--out-dir", str(tmp_path), "--jobs", "0").exit_code == 2
+
+
+EMPTY_WARNING = ("warning: the program has no blocks: nothing in it commands the control (empty, or only tape marks, "
+                 "program numbers, comments and blank lines); did the step that wrote it fail?")
+
+
+@pytest.mark.parametrize("data", [b"", b"\n\n", b"%\n%\n", b"%\r\n(PART 7)\r\n\r\n%\r\n", b"%\nO1234 (NOTHING)\n%\n",
+                                  b"(ONLY A COMMENT)"], ids=["0-bytes", "blank", "tape", "comment-crlf", "o-number",
+                                                              "no-eol"])
+def test_a_program_with_no_blocks_is_given_back_with_a_warning_from_a_file_and_from_stdin(run, tmp_path, data):
+    """An empty program in a post-processing chain most often means a failed CAM step: said
+    once on stderr by check and compensate, whichever way it comes; the identity stays byte for
+    byte (nothing for nothing) and a compensated run writes only its provenance around it."""
+    path = tmp_path / "empty.nc"
+    path.write_bytes(data)
+    for name, stdin in ((str(path), None), ("<stdin>", data)):
+        given = () if stdin is not None else (str(path),)
+        checked = run("check", *given, input=stdin)
+        assert checked.exit_code == 0 and checked.stdout == ""
+        assert checked.stderr.splitlines()[0] == f"{name}: {EMPTY_WARNING}"
+        identity = run("compensate", *given, input=stdin)
+        assert identity.exit_code == 0 and identity.stdout_bytes == data
+        assert identity.stderr.count(EMPTY_WARNING) == 1
+    model = _mixed_model(run, tmp_path)
+    compensated = run("compensate", str(path), "--model", model)
+    assert compensated.exit_code == 0 and compensated.stderr.count(EMPTY_WARNING) == 1
+    out = compensated.stdout_bytes
+    assert b"(POSTPROC " in out and b"(BLOCKS REPLACED 0 BY 0)" in out
+    assert out.replace(b"\r\n", b"\n").endswith(data.replace(b"\r\n", b"\n").split(b"(NOTHING)\n")[-1].lstrip(b"%\n"))
+
+
+@pytest.mark.parametrize("data", [b"M30\n", b"%\nT0101\nM30\n%\n", b"#1 = 5\n"])
+def test_a_program_that_commands_anything_is_not_empty(run, data):
+    result = run("check", input=data)
+    assert result.exit_code == 0 and "no blocks" not in result.stderr

@@ -1,0 +1,45 @@
+"""The compensator contract (postproc/compensate/compensator.py) and the public helpers plugins build on:
+what a plugin sees, it can load without the engine."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+from support import REPO
+
+#: The engine: what reads, interprets, plans and writes programs. A plugin never needs it.
+ENGINE = ("postproc.compensate.rewrite", "postproc.compensate.segmenter", "postproc.interpret.interpreter", "postproc.compensate.emitter", "postproc.syntax.reader",
+          "postproc.syntax.fastpath", "postproc.compensate.pipeline", "postproc.syntax.grammar", "postproc.interpret.corners", "postproc.syntax.macro",
+          "postproc.interpret.canonical", "postproc.interpret.statements", "postproc.interpret.convert",
+          "postproc.interpret.arcs", "postproc.interpret.cycles", "postproc.interpret.state")
+
+LOADED = """
+import json, sys
+from importlib.metadata import entry_points
+import postproc.compensator
+contract = sorted(name for name in sys.modules if name.startswith("postproc"))
+plugins = [point.load() for point in entry_points(group="postproc") if point.value.startswith("postproc_plugins.")]
+print(json.dumps({"contract": contract, "plugins": [p.__name__ for p in plugins],
+                  "all": sorted(name for name in sys.modules if name.startswith("postproc"))}))
+"""
+
+
+def test_contract_and_every_built_in_plugin_load_without_the_engine():
+    """A fresh interpreter, so that no other test's imports count: the contract and every
+    built-in plugin (through their entry points, as postproc loads them) pull in no engine
+    module."""
+    done = subprocess.run([sys.executable, "-c", LOADED], capture_output=True, text=True, cwd=REPO, check=True)
+    loaded = json.loads(done.stdout)
+    assert len(loaded["plugins"]) >= 8  # the seven compensators and formats, error-map among them
+    assert "postproc.compensator" in loaded["contract"]
+    assert [name for name in loaded["all"] if name in ENGINE or name.startswith("postproc.simulator")] == []
+
+
+def test_piece_is_the_contracts_own():
+    """The engine takes the contract's Piece; it does not define one of its own."""
+    from postproc.compensate import compensator, rewrite
+
+    assert rewrite.Piece is compensator.Piece
+    assert compensator.Piece.__module__ == "postproc.compensate.compensator"

@@ -1,0 +1,117 @@
+"""Fit once, apply many times: saved models, their checks and their warnings."""
+
+from __future__ import annotations
+
+import json
+
+from support import SAMPLES
+
+HEMISHELL = str(SAMPLES / "programs" / "hemishell.nc")
+CCW, CW = (str(SAMPLES / "ballbar" / f"v40r-100-{d}.csv") for d in ("ccw", "cw"))
+FIT = ["fit", "--plugin", "ballbar-inverse", "--ballbar", CCW, "--ballbar", CW, "--option", "radius-mapping=relative"]
+
+
+def _body(program: str) -> list[str]:
+    """The program without its provenance comments (they name the inputs differently)."""
+    return [line for line in program.splitlines() if not line.startswith(("(POSTPROC", "(PLUGIN", "(INPUT", "(MODEL",
+                                                                          "(TOLERANCE", "(LARGEST", "(BLOCKS"))]
+
+
+def test_a_saved_model_compensates_as_the_measurements_did(run, tmp_path):
+    model = tmp_path / "model.json"
+    fitted = run(*FIT, "--note", "warmed up 2 h", "-o", str(model))
+    assert fitted.exit_code == 0 and fitted.stdout == "", fitted.stderr
+    data = json.loads(model.read_text())
+    assert (data["format"], data["version"], data["plugin"], data["note"]) == ("postproc model", 1, "ballbar-inverse", "warmed up 2 h")
+    assert [entry["file"] for entry in data["inputs"]] == [CCW, CW] and len(data["inputs"][0]["sha256"]) == 64
+    applied = run("compensate", HEMISHELL, "--model", str(model))
+    direct = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", CCW, "--ballbar", CW,
+                 "--option", "radius-mapping=relative")
+    assert applied.exit_code == direct.exit_code == 0
+    assert _body(applied.stdout) == _body(direct.stdout)
+    assert "(MODEL MODEL.JSON)" in applied.stdout
+
+
+def test_a_changed_or_foreign_model_is_refused(run, tmp_path):
+    model = tmp_path / "model.json"
+    run(*FIT, "-o", str(model))
+    data = json.loads(model.read_text())
+    data["model"]["traces"]["ccw"]["deviations_mm"][0] += 0.01
+    model.write_text(json.dumps(data))
+    result = run("compensate", HEMISHELL, "--model", str(model))
+    assert result.exit_code == 3 and result.stdout == ""
+    assert result.stderr.startswith(f"{model}: error: the model's content does not match its SHA-256")
+    data["version"] = 2
+    model.write_text(json.dumps(data))
+    assert "a model of version 2" in run("compensate", HEMISHELL, "--model", str(model)).stderr
+    model.write_text("[1, 2")
+    assert "not a postproc model (not JSON" in run("compensate", HEMISHELL, "--model", str(model)).stderr
+
+
+def test_an_old_model_or_one_for_another_machine_warns(run, tmp_path):
+    import datetime as dt
+    import hashlib
+
+    from postproc.compensate.models import _canonical
+
+    model = tmp_path / "model.json"
+    run(*FIT, "-o", str(model))
+    data = json.loads(model.read_text())
+    data.pop("sha256")
+    data["measured"] = (dt.datetime.now(dt.timezone.utc) - dt.timedelta(days=90)).replace(microsecond=0).isoformat()
+    data["machine_profile"] = "another-lathe"
+    data["sha256"] = hashlib.sha256(_canonical(data)).hexdigest()
+    model.write_text(json.dumps(data))
+    result = run("compensate", HEMISHELL, "--model", str(model))
+    assert result.exit_code == 0
+    assert "was measured 90 days ago" in result.stderr and "made for machine profile 'another-lathe'" in result.stderr
+
+
+def test_a_model_carries_its_own_compensator_and_options(run, tmp_path):
+    model = tmp_path / "model.json"
+    run(*FIT, "-o", str(model))
+    result = run("compensate", HEMISHELL, "--model", str(model), "--plugin", "iterative")
+    assert result.exit_code == 2 and "--model carries its compensator" in result.stderr
+
+
+def test_a_model_is_dated_by_the_measured_key_of_its_files(run, tmp_path):
+    """Every measurement format takes ``measured`` (ISO 8601 with a zone); a model is as old as its oldest measurement, in UTC."""
+    stamped = []
+    for path, moment in ((CCW, "2026-11-20T14:05:00+01:00"), (CW, "2026-11-20T14:35:00+01:00")):
+        lines = open(path).read().splitlines(keepends=True)
+        copy = tmp_path / path.rsplit("/", 1)[-1]
+        copy.write_text(lines[0] + f"# measured = {moment}\n" + "".join(lines[1:]))
+        stamped.append(str(copy))
+    model = tmp_path / "model.json"
+    fitted = run("fit", "--plugin", "parametric", "--ballbar", stamped[0], "--ballbar", stamped[1], "-o", str(model))
+    assert fitted.exit_code == 0, fitted.stderr
+    assert json.loads(model.read_text())["measured"] == "2026-11-20T13:05:00+00:00"
+    for name in ("probe/hemishell-pass1.csv", "probe/artifact-calibration.csv"):
+        lines = (SAMPLES / name).read_text().splitlines(keepends=True)
+        probe = tmp_path / name.rsplit("/", 1)[-1]
+        probe.write_text(lines[0] + "# measured = 2026-11-21T08:00:00Z\n" + "".join(lines[1:]))
+    result = run("compensate", HEMISHELL, "--plugin", "tool-offset", "--probe", str(tmp_path / "hemishell-pass1.csv"),
+                 "--calibration", str(tmp_path / "artifact-calibration.csv"))
+    assert result.exit_code == 0, result.stderr
+
+
+def test_a_parametric_model_beyond_what_traces_may_read_is_refused(run, tmp_path):
+    """A model edited by hand (its SHA-256 made again) or fitted from traces in another unit is
+    held to the bounds its traces are: 500 ppm of scaling, 50 um of backlash."""
+    import hashlib
+
+    from postproc.compensate.models import _canonical
+
+    model = tmp_path / "model.json"
+    assert run("fit", "--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW, "-o", str(model)).exit_code == 0
+    saved = json.loads(model.read_text())
+    for name, value, said in (("backlash_x", 0.08, "backlash_x is +80.0 um, beyond the 50 um"),
+                              ("scaling_x_plus", -0.0009, "scaling_x_plus is -900.0 ppm, beyond the 500 ppm")):
+        data = json.loads(json.dumps(saved))
+        data.pop("sha256")
+        data["model"]["parameters"][name][0] = value
+        data["sha256"] = hashlib.sha256(_canonical(data)).hexdigest()
+        model.write_text(json.dumps(data))
+        result = run("compensate", HEMISHELL, "--model", str(model))
+        assert (result.exit_code, result.stdout) == (3, ""), result.stderr
+        assert f"parametric: the saved model's {said}" in result.stderr

@@ -1,0 +1,124 @@
+"""One compensation run (postproc.compensate.pipeline): the provenance header and what it records, double
+compensation seen wherever its mark stands, nothing done said, a model's measurement time."""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import os
+import subprocess
+import sys
+
+from support import SAMPLES
+
+HEMISHELL = SAMPLES / "programs" / "hemishell.nc"
+CCW, CW = (str(SAMPLES / "ballbar" / f"v40r-100-{d}.csv") for d in ("ccw", "cw"))
+TRACES = ["--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW]
+
+
+def _header(program: str) -> list[str]:
+    return [line for line in program.splitlines() if line.startswith("(") and line.upper() == line][:20]
+
+
+def test_the_header_records_every_setting_that_changes_the_output(run):
+    result = run("compensate", str(HEMISHELL), *TRACES, "--option", "extrapolate=true", "--region", "L7-L7",
+                 "--region", "T01", "--tolerance", "0.002", "--mode", "arc", "--max-correction", "0.05")
+    assert result.exit_code == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[2:14] == [
+        "(POSTPROC 0.1.0 COMPENSATED)",
+        "(PLUGIN PARAMETRIC 0.1.0)",
+        "(OPTION PARAMETRIC.EXTRAPOLATE=TRUE)",
+        "(INPUT V40R-100-CCW.CSV SHA256 BC5A9CF85373)",
+        "(INPUT V40R-100-CW.CSV SHA256 DB4383B0A73C)",
+        "(REGION L7-L7)",
+        "(REGION T01)",
+        "(TOLERANCE 0.002 MM MODE ARC)",
+        "(MACHINE FANUC-18I-T MAX CORRECTION 0.05 MM)",
+        "(LARGEST CORRECTION 0.0047 MM)",
+        "(BLOCKS REPLACED 4 BY 6)",
+        "(57.15 MM RADIUS, POLE TO EQUATOR, ALUMINIUM)",
+    ]
+
+
+def test_a_models_options_are_recorded_as_the_fits(run, tmp_path):
+    model = tmp_path / "m.json"
+    assert run("fit", *TRACES, "--option", "extrapolate=true", "-o", str(model)).exit_code == 0
+    result = run("compensate", str(HEMISHELL), "--model", str(model))
+    assert "(OPTION PARAMETRIC.EXTRAPOLATE=TRUE)" in result.stdout.splitlines()
+
+
+def test_a_provenance_mark_anywhere_is_double_compensation(run, tmp_path):
+    text = HEMISHELL.read_text()
+    for where, program, line, col in [
+        ("below line 50", text.replace("M30", "G00 X150.\n" * 60 + "( postproc 0.0.9 compensated )\nM30"), 74, 1),
+        ("after a block", "G00 X150. (POSTPROC 0.1.0 COMPENSATED)\n" + text, 1, 11),
+    ]:
+        path = tmp_path / "p.nc"
+        path.write_text(program)
+        result = run("compensate", str(path), *TRACES)
+        assert (result.exit_code, result.stdout) == (4, ""), where
+        assert result.stderr.splitlines()[0] == (f"{path}:{line}:{col}: error: this program was already compensated "
+                                                 "by postproc; give --force to compensate it again"), where
+        forced = run("compensate", str(path), *TRACES, "--force")
+        assert forced.exit_code == 0 and "(FORCED: COMPENSATED AGAIN OR CHECK OVERRIDDEN)" in forced.stdout
+
+
+def test_a_region_that_selects_nothing_is_said_and_not_marked(run):
+    result = run("compensate", str(HEMISHELL), *TRACES, "--region", "N900-N910")
+    assert result.exit_code == 0
+    assert result.stdout == HEMISHELL.read_text()
+    assert result.stderr.splitlines()[0] == (
+        f"{HEMISHELL}: warning: --region N900-N910 selects no block that could be compensated: the program is "
+        "written back unchanged and not marked COMPENSATED")
+
+
+def test_the_header_takes_the_programs_own_line_ending(run):
+    for ending in ("\r", "\r\n", "\n"):
+        program = HEMISHELL.read_text().replace("\n", ending)
+        result = run("compensate", *TRACES, input=program.encode())
+        assert result.exit_code == 0, result.stderr
+        out = result.stdout_bytes.decode()
+        header = [line for line in out.split(ending) if line.startswith("(POSTPROC")]
+        assert header == ["(POSTPROC 0.1.0 COMPENSATED)"], repr(out[:200])
+        assert out.count(ending) == out.count("\n" if ending == "\n" else "\r")  # one ending throughout
+
+
+# ---------------------------------------------------------------------- a model's measurement time
+
+
+def _measured(run, tmp_path, traces: list[str]) -> dict:
+    model = tmp_path / "m.json"
+    result = run("fit", "--plugin", "parametric", *[part for trace in traces for part in ("--ballbar", trace)],
+                 "-o", str(model))
+    assert result.exit_code == 0, result.stderr
+    return json.loads(model.read_text()), result.stderr
+
+
+def test_the_measured_header_key_is_the_models_measurement_time(run, tmp_path):
+    ccw, cw = tmp_path / "ccw.csv", tmp_path / "cw.csv"
+    for path, source, when in ((ccw, CCW, "2026-11-20T14:05:00+01:00"), (cw, CW, "2026-11-20T14:35:00+01:00")):
+        lines = open(source).read().splitlines(keepends=True)
+        path.write_text(lines[0] + f"# measured = {when}\n" + "".join(lines[1:]))
+    data, _ = _measured(run, tmp_path, [str(ccw), str(cw)])
+    assert data["measured"] == "2026-11-20T13:05:00+00:00"  # the older of the two
+
+
+def test_without_the_key_the_files_modification_time_counts(run, tmp_path):
+    ccw, cw = tmp_path / "ccw.csv", tmp_path / "cw.csv"
+    ccw.write_bytes(open(CCW, "rb").read())
+    cw.write_bytes(open(CW, "rb").read())
+    moment = dt.datetime(2026, 3, 1, 8, 0, tzinfo=dt.timezone.utc).timestamp()
+    os.utime(ccw, (moment, moment))
+    data, _ = _measured(run, tmp_path, [str(ccw), str(cw)])
+    assert data["measured"] == "2026-03-01T08:00:00+00:00"
+
+
+def test_a_pipe_without_the_key_is_measured_now_with_a_warning_never_the_epoch(tmp_path):
+    command = (f"{sys.executable} -c 'from postproc.cli.main import main; main()' fit --plugin parametric "
+               f"--ballbar <(cat {CCW}) --ballbar <(cat {CW}) -o m.json")
+    result = subprocess.run(["bash", "-c", command], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert "warning: no measurement time: the file has no '# measured = ...' header line" in result.stderr
+    measured = dt.datetime.fromisoformat(json.loads((tmp_path / "m.json").read_text())["measured"])
+    assert abs((dt.datetime.now(dt.timezone.utc) - measured).total_seconds()) < 600

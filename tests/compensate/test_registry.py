@@ -1,0 +1,384 @@
+"""The plugin system: discovery, order, options, routing, faults, and a third-party plugin."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from support import REPO, SAMPLES
+from postproc.compensate import hookspecs
+from postproc.compensate import registry
+from postproc.compensator import Compensator
+
+HEMISHELL = str(SAMPLES / "programs" / "hemishell.nc")
+CCW, CW = (str(SAMPLES / "ballbar" / f"v40r-100-{d}.csv") for d in ("ccw", "cw"))
+BUILT_IN = {"ballbar-inverse", "iterative"}
+
+
+def test_plugins_lists_name_version_and_summary(run):
+    result = run("plugins")
+    assert result.exit_code == 0 and result.stderr == ""
+    lines = result.stdout.splitlines()
+    names = [line.split()[0] for line in lines]
+    assert BUILT_IN <= set(names) and names == sorted(names)
+    for line in lines:
+        assert re.match(r"^\S+ \d+\.\d+\.\d+ \S.+$", line), line
+
+
+def test_built_in_compensators_come_through_entry_points():
+    installed = registry.compensators()
+    for name in BUILT_IN:
+        assert installed[name].cls.__module__.startswith("postproc_plugins.")
+        assert installed[name].distribution == "postproc"
+
+
+def test_compensators_run_in_the_order_given(run):
+    result = run("compensate", HEMISHELL, "--plugin", "iterative", "--plugin", "ballbar-inverse",
+                 "--ballbar", CCW, "--ballbar", CW, "--option", "radius-mapping=relative")
+    assert result.exit_code == 0, result.stderr
+    plugins = [line for line in result.stdout.splitlines() if line.startswith("(PLUGIN")]
+    assert plugins == ["(PLUGIN ITERATIVE 0.1.0)", "(PLUGIN BALLBAR-INVERSE 0.1.0)"]
+
+
+def test_option_scoping(run):
+    base = ["compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", CCW, "--ballbar", CW]
+    assert run(*base, "--option", "ballbar-inverse.radius-mapping=relative").exit_code == 0
+    unknown = run(*base, "--option", "radius-mapping=relative", "--option", "stock=1")
+    assert unknown.exit_code == 3 and "no selected compensator declares 'stock'" in unknown.stderr
+    other = run(*base, "--option", "iterative.selective=0.001")
+    assert other.exit_code == 3 and "'iterative' is not a selected compensator" in other.stderr
+    bad = run(*base, "--option", "radius-mapping=sideways")
+    assert bad.exit_code == 3 and "expected one of absolute, relative, center-offset" in bad.stderr
+    for result in (unknown, other, bad):
+        assert result.stdout == ""
+
+
+def test_measurements_go_only_where_they_are_taken(run, tmp_path):
+    probe = tmp_path / "p.csv"
+    probe.write_text("# postproc probe 1\n# stylus_radius_mm = 3\nx_mm,z_mm,approach_x,approach_z\n1,60,0,-1\n")
+    result = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", CCW, "--probe", str(probe))
+    assert result.exit_code == 2 and "no selected compensator (ballbar-inverse) takes probe" in result.stderr
+    missing = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse")
+    assert missing.exit_code == 2 and "needs --ballbar" in missing.stderr
+
+
+def test_unknown_plugin(run):
+    result = run("compensate", HEMISHELL, "--plugin", "telepathy")
+    assert result.exit_code == 3 and "no compensator of that name is installed" in result.stderr
+
+
+class _Raises(Compensator):
+    """Raises while correcting."""
+
+    name = "test-raises"
+
+    def fit(self, measurements):
+        pass
+
+    def correct(self, piece):
+        raise ZeroDivisionError("oops")
+
+
+class _Nonsense(_Raises):
+    """Returns a correction of the wrong shape."""
+
+    name = "test-nonsense"
+
+    def correct(self, piece):
+        return np.zeros((3, 3))
+
+
+class _Mutates(_Raises):
+    """Changes the shared sample points in place."""
+
+    name = "test-mutates"
+
+    def correct(self, piece):
+        piece.points[:, 0] += 0.001
+        return np.zeros((len(piece.t), 2))
+
+
+class _Miscounts(_Raises):
+    """Returns fewer corrections than it was given pieces."""
+
+    name = "test-miscounts"
+
+    def correct_many(self, pieces):
+        return [None] * (len(pieces) - 1)
+
+
+class _Infinite(_Raises):
+    """Returns a correction that is not finite."""
+
+    name = "test-infinite"
+
+    def correct(self, piece):
+        shift = np.zeros((len(piece.t), 2))
+        shift[-1, 1] = np.inf
+        return shift
+
+
+class _Test:
+    @hookspecs.hookimpl
+    def postproc_compensators(self):
+        return [_Raises, _Nonsense, _Mutates, _Miscounts, _Infinite]
+
+
+@pytest.fixture
+def faulty():
+    manager = registry.manager()
+    plugin = _Test()
+    manager.register(plugin, name="faulty-test-plugin")
+    yield
+    manager.unregister(plugin)
+
+
+@pytest.mark.parametrize("name, words", [("test-raises", "correct failed: ZeroDivisionError: oops"),
+                                         ("test-nonsense", "returned a correction of shape (3, 3)"),
+                                         ("test-mutates", "correct failed: ValueError: output array is read-only"),
+                                         ("test-miscounts", "returned 2 corrections for 3 pieces"),
+                                         ("test-infinite", "returned a correction with values that are not finite")])
+def test_a_faulty_plugin_is_named_and_nothing_is_written(run, faulty, tmp_path, name, words):
+    target = tmp_path / "out.nc"
+    result = run("compensate", HEMISHELL, "--plugin", name, "-o", str(target))
+    assert result.exit_code == 5
+    assert f"plugin '{name}': {words}" in result.stderr
+    assert not target.exists() and list(tmp_path.iterdir()) == []
+
+
+@pytest.fixture(scope="module")
+def shop_plugin(tmp_path_factory) -> Path:
+    """The sample third-party plugin, installed by pip into a directory of its own."""
+    target = tmp_path_factory.mktemp("site")
+    subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps",
+                    "--target", str(target), str(SAMPLES / "plugins" / "postproc-shop-example")], check=True)
+    return target
+
+
+def _postproc(site: Path, *args: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(site)}
+    return subprocess.run([sys.executable, "-c", "from postproc.cli.main import main; main()", *args],
+                          capture_output=True, text=True, env=env, cwd=REPO)
+
+
+def test_a_third_party_plugin_appears_and_runs(shop_plugin, tmp_path):
+    listed = _postproc(shop_plugin, "plugins")
+    assert listed.returncode == 0
+    assert "radial-allowance 1.0.0 Leave a finishing allowance on every feed arc." in listed.stdout.splitlines()
+    result = _postproc(shop_plugin, "compensate", HEMISHELL, "--plugin", "radial-allowance", "--option", "allowance=0.05")
+    assert result.returncode == 0, result.stderr
+    assert "G03 X114.4 Z0. I0. K-57.2" in result.stdout
+
+
+def test_a_third_party_reader_reads_its_instrument_export(shop_plugin, tmp_path):
+    export = tmp_path / "trace.shopbar"
+    rows = "".join(f"{a};5\n" for a in range(0, 360, 2))
+    export.write_text(f"SHOPBAR EXPORT;RADIUS=57.15;DIR=CCW\nANGLE;DEV_UM\n{rows}")
+    result = _postproc(shop_plugin, "compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", str(export))
+    assert result.returncode == 0, result.stderr
+    assert "G03 X114.29 Z0. I0. K-57.145" in result.stdout
+
+
+class _Reader:
+    """A reader registered in-process through postproc_measurement_readers."""
+
+    @hookspecs.hookimpl
+    def postproc_measurement_readers(self):
+        from postproc.measure.readers.ballbar import read_ballbar
+        from postproc.measure.readers.registry import MeasurementReader
+
+        def read(path, context):
+            with open(path) as handle:
+                text = handle.read().replace("# flipped ballbar", "# postproc ballbar 1", 1)
+            flipped = Path(path).with_suffix(".converted.csv")
+            flipped.write_text(text)
+            return read_ballbar(str(flipped), context.reporter)
+
+        return [MeasurementReader("ballbar", "flipped", lambda path: open(path).readline().startswith("# flipped"), read)]
+
+
+def test_postproc_measurement_readers_come_before_the_built_in_ones(run, tmp_path):
+    manager = registry.manager()
+    plugin = _Reader()
+    manager.register(plugin, name="reader-test-plugin")
+    try:
+        trace = tmp_path / "t.csv"
+        rows = "".join(f"{a},0.005\n" for a in range(0, 360, 2))
+        trace.write_text(f"# flipped ballbar\n# radius_mm = 57.15\n# direction = ccw\n# centered = true\nangle_deg,deviation_mm\n{rows}")
+        assert [reader.name for reader in registry.readers()][0] == "flipped"
+        result = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", str(trace))
+        assert result.exit_code == 0 and "G03 X114.29 Z0. I0. K-57.145" in result.stdout
+    finally:
+        manager.unregister(plugin)
+
+
+def _named_reader(name: str, magic: str, **order):
+    """A plugin object with one ballbar reader that accepts files whose first line is ``magic``
+    and reads them as postproc traces, marked ``tryfirst``/``trylast`` as ``order`` says."""
+    from postproc.measure.readers.ballbar import read_ballbar
+    from postproc.measure.readers.csvfile import snapshot
+    from postproc.measure.readers.registry import MeasurementReader, first_line
+
+    def read(path, context):
+        text = snapshot(path).data.decode().replace(magic, "# postproc ballbar 1", 1)
+        converted = Path(path).with_suffix(f".{name}.csv")
+        converted.write_text(text)
+        return read_ballbar(str(converted), context.reporter)
+
+    class Plugin:
+        @hookspecs.hookimpl(**order)
+        def postproc_measurement_readers(self):
+            return [MeasurementReader("ballbar", name, lambda path: first_line(path) == magic, read)]
+
+    return Plugin()
+
+
+@pytest.fixture
+def registered():
+    """Register plugin objects for one test (in the order given), unregistered after it."""
+    manager = registry.manager()
+    added = []
+
+    def register(*plugins):
+        for index, plugin in enumerate(plugins):
+            manager.register(plugin, name=f"reader-order-{len(added)}-{index}")
+            added.append(plugin)
+
+    yield register
+    for plugin in added:
+        manager.unregister(plugin)
+
+
+def _ballbar_names():
+    return [reader.name for reader in registry.readers() if reader.kind == "ballbar"]
+
+
+def test_readers_come_in_pluggys_order_tryfirst_plain_then_the_built_in_trylast(registered):
+    """An unmarked shop reader comes before the built-in one (trylast), the shop reader
+    registered last first; a tryfirst one comes before every unmarked one, whenever it was
+    registered. The order is pluggy's own: that of the hook's call."""
+    registered(_named_reader("early-tryfirst", "# A", tryfirst=True), _named_reader("plain", "# B"),
+               _named_reader("later", "# C"))
+    names = _ballbar_names()
+    assert names == ["early-tryfirst", "later", "plain", "postproc ballbar 1"]
+    called = [reader.name for found in registry.manager().hook.postproc_measurement_readers() for reader in found]
+    assert [reader.name for reader in registry.readers()] == called
+
+
+def test_a_tryfirst_reader_takes_a_file_before_another_shops_reader(registered, run, tmp_path):
+    """Two shop readers both accept the file: the tryfirst one reads it, though registered first."""
+    registered(_named_reader("first", "# SHOP", tryfirst=True), _named_reader("second", "# SHOP"))
+    trace = tmp_path / "shop.csv"
+    rows = "".join(f"{a},0.005\n" for a in range(0, 360, 2))
+    trace.write_text(f"# SHOP\n# radius_mm = 57.15\n# direction = ccw\n# centered = true\nangle_deg,deviation_mm\n{rows}")
+    result = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", str(trace))
+    assert result.exit_code == 0, result.stderr
+    assert (tmp_path / "shop.first.csv").exists() and not (tmp_path / "shop.second.csv").exists()
+
+
+def test_a_file_no_shop_reader_accepts_falls_back_to_the_built_in_reader(registered, run, tmp_path):
+    """A shop reader that declines a file leaves it to the built-in reader: a postproc trace is
+    read as ever, and a file nobody reads gets the built-in reader's exact message."""
+    registered(_named_reader("shop", "# SHOP", tryfirst=True))
+    result = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", CCW, "--ballbar", CW,
+                 "--option", "radius-mapping=relative")
+    assert result.exit_code == 0, result.stderr
+    assert not list((SAMPLES / "ballbar").glob("*.shop.csv"))
+    wrong = tmp_path / "wrong.csv"
+    wrong.write_text("# some other format\n1,2\n")
+    refused = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", str(wrong))
+    assert refused.exit_code == 3 and refused.stdout == ""
+    assert refused.stderr.startswith(f"{wrong}:1: error: ") and "postproc ballbar 1" in refused.stderr
+
+
+class _Hangs(_Raises):
+    """Never returns."""
+
+    name = "test-hangs"
+
+    def correct(self, piece):
+        while True:
+            pass
+
+
+class _Slow:
+    @hookspecs.hookimpl
+    def postproc_compensators(self):
+        return [_Hangs]
+
+
+def test_a_plugin_that_hangs_is_stopped_and_named(run, tmp_path):
+    manager = registry.manager()
+    plugin = _Slow()
+    manager.register(plugin, name="slow-test-plugin")
+    try:
+        machine = tmp_path / "m.toml"
+        machine.write_text("plugin_time_limit_s = 0.5\n")
+        target = tmp_path / "out.nc"
+        result = run("compensate", HEMISHELL, "--plugin", "test-hangs", "--machine", str(machine), "-o", str(target))
+        assert result.exit_code == 5
+        assert "plugin 'test-hangs': correct took longer than 0.5 s" in result.stderr
+        assert not target.exists()
+    finally:
+        manager.unregister(plugin)
+
+
+# ---------------------------------------------------------------------- loading only what a run selects
+
+
+def _fresh(code: str, site: Path | None = None, *args: str) -> subprocess.CompletedProcess:
+    """Python started anew (nothing imported yet), with ``site`` on its path if given."""
+    env = {**os.environ, "PYTHONPATH": str(site)} if site is not None else None
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, env=env, cwd=REPO)
+
+
+def test_each_built_in_entry_point_is_named_after_the_compensator_it_provides():
+    """What lets a run load only the compensators it names: an unloaded built-in entry point's
+    name is the name of its compensator (or it provides none, as the readers' does)."""
+    manager = registry.manager()
+    for plugin, dist in manager.list_plugin_distinfo():
+        if dist.project_name != registry.OWN:
+            continue
+        name = manager.get_name(plugin)
+        provided = [cls.name for impl in manager.hook.postproc_compensators.get_hookimpls()
+                    if impl.plugin is plugin for cls in impl.function() or ()]
+        assert provided in ([], [name]), (name, provided)
+
+
+def test_a_run_loads_only_the_built_in_compensators_it_selects():
+    result = _fresh("import sys; from postproc.compensate import registry as plugins; "
+                    "print([item.cls.name for item in plugins.select(['tool-offset', 'parametric'])]); "
+                    "print(sorted(m for m in sys.modules if m.startswith('postproc_plugins.')))")
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines() == ["['tool-offset', 'parametric']",
+                                          "['postproc_plugins.parametric', 'postproc_plugins.tool_offset']"]
+
+
+def _clashing_distribution(site: Path, provides: str) -> None:
+    """A distribution installed as pip leaves one (a dist-info beside its module) whose entry
+    point is named otherwise than the compensator it provides."""
+    (site / "clash_plugin.py").write_text(
+        "from postproc.compensator import Compensator\nfrom postproc.hookspecs import hookimpl\n\n\n"
+        f"class Clash(Compensator):\n    name = {provides!r}\n\n\n"
+        "@hookimpl\ndef postproc_compensators():\n    return [Clash]\n")
+    info = site / "clash_plugin-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: clash-plugin\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text("[postproc]\nclash = clash_plugin\n")
+
+
+@pytest.mark.parametrize("provides", ["iterative", "parametric"])
+def test_a_compensator_name_taken_twice_is_caught_though_only_one_is_selected(tmp_path, provides):
+    """A third-party compensator named like a built-in one: an error whether the built-in one is
+    selected (both load) or not (its entry point's name gives it away, and everything loads)."""
+    _clashing_distribution(tmp_path, provides)
+    result = _fresh("from postproc.cli.main import main; main()", tmp_path, "compensate", HEMISHELL, "--plugin",
+                    "parametric", "--ballbar", CCW, "--ballbar", CW)
+    assert result.returncode == 5 and result.stdout == ""
+    assert f"two plugins provide a compensator named {provides!r}" in result.stderr

@@ -1,0 +1,321 @@
+"""The rewriter and the CLI end to end: joins, modal restore, labels, self-check, nothing else moved."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, example, given, settings
+from hypothesis import strategies as st
+
+from support import SAMPLES
+from support.interpret import moves
+from postproc.diagnostics import InterpretationError, Reporter, SafetyError
+from postproc.geometry import Arc
+from postproc.interpret.program import interpret_source
+from postproc.compensate import rewrite as rewrite_module
+from postproc.interpret.motion import ARC, LINE, Move
+from postproc.compensate.rewrite import Rewriter, Settings, pieces, sample_lines
+from postproc.compensate.segmenter import chord_minimum
+from postproc.syntax.source import Source
+
+HEMISHELL = (SAMPLES / "programs" / "hemishell.nc").read_text()
+
+
+def radial(deviation_mm, lines=None):
+    """A corrector that moves arcs (of the given lines) outwards by a deviation."""
+
+    def correct(piece):
+        if not isinstance(piece.segment, Arc) or (lines is not None and piece.move.line not in lines):
+            return None
+        unit = (piece.points - np.array(piece.segment.centre)) / piece.segment.r
+        return unit * deviation_mm
+
+    return correct
+
+
+def each(correct):
+    """A per-piece corrector as the rewriter calls it: with a run of pieces at once."""
+    return lambda pieces: [correct(piece) for piece in pieces]
+
+
+def rewrite(text: str, correct, **options) -> tuple[str, Rewriter]:
+    with Source.from_text(text, "t.nc") as source:
+        rewriter = Rewriter(interpret_source(source), each(correct), Settings(**options), Reporter(), "t.nc")
+        return "".join(rewriter.run()), rewriter
+
+
+def arcs_and_lines(text: str):
+    return [m for m in moves(text) if m.kind in ("line", "arc")]
+
+
+def test_hemishell_with_constant_trace_is_one_arc_joined_to_the_approach(run, tmp_path):
+    trace = tmp_path / "ccw.csv"
+    rows = "".join(f"{a},0.005\n" for a in range(0, 360, 2))
+    trace.write_text(f"# postproc ballbar 1\n# radius_mm = 57.15\n# direction = ccw\n# centered = true\nangle_deg,deviation_mm\n{rows}")
+    result = run("compensate", str(SAMPLES / "programs" / "hemishell.nc"), "--plugin", "ballbar-inverse", "--ballbar", str(trace))
+    assert result.exit_code == 0, result.stderr
+    out = result.stdout
+    assert "G01 X0. Z57.145 F0.08" in out  # the G01 to the pole meets the new arc (Table 6.2)
+    assert "G03 X114.29 Z0. I0. K-57.145" in out
+    arcs = [m for m in moves(out) if m.kind == "arc"]
+    assert len(arcs) == 1 and math.hypot(arcs[0].x0 - arcs[0].xc, arcs[0].z0 - arcs[0].zc) == pytest.approx(57.145)
+    assert run("check", input=out).exit_code == 0  # the control's arc check passes
+    original = HEMISHELL.splitlines()
+    kept = [line for line in original if line in out.splitlines()]
+    assert len(kept) == len(original) - 2  # only the G01 to the pole and the arc changed
+
+
+def test_line_mode_and_auto_on_the_hemishell():
+    line_text, line = rewrite(HEMISHELL, radial(-0.004), mode="line", tolerance=0.001)
+    auto_text, auto = rewrite(HEMISHELL, radial(-0.004), mode="auto", tolerance=0.001)
+    assert line.worst <= 0.001 and auto.worst <= 0.001
+    assert auto.emitted < line.emitted
+    chords = line.emitted - 1  # the retargeted G01 to the pole is one of the blocks
+    assert chords <= 1.1 * chord_minimum(57.146, math.pi / 2, 0.001 - 0.00028)
+
+
+def test_modal_mode_is_restored_for_the_next_block_that_relied_on_it():
+    text = "G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nG03 X40. Z-10. R10.\nX60. Z-20. R10.\nG00 X100.\n"
+    out, _ = rewrite(text, radial(0.002, lines={4}), mode="line", tolerance=0.001)
+    lines = out.splitlines()
+    restored = [line for line in lines if "Z-20." in line]
+    assert restored == ["G03 X60. Z-20. R10."]
+    assert [m.kind for m in moves(out)][-2:] == ["arc", "rapid"]
+
+
+def test_incremental_and_omitted_axes_after_a_change_are_written_out():
+    text = "G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nG02 X40. Z-10. R10.\nG01 U10.\nW-5.\n"
+    out, _ = rewrite(text, radial(0.003), tolerance=0.001)
+    before, after = arcs_and_lines(text), arcs_and_lines(out)
+    assert (after[-1].x1, after[-1].z1) == (before[-1].x1, before[-1].z1)  # the last unchanged block still ends there
+    assert "G01 U10." not in out and "W-5." in out  # U10. ended off its nominal end, W-5. starts where it did
+
+
+def test_an_unchanged_arc_after_a_change_gets_a_connecting_move_back():
+    text = "G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nG02 X40. Z-10. R10.\nG03 X60. Z-20. R10.\n"
+    out, _ = rewrite(text, radial(0.003, lines={4}), tolerance=0.001)
+    result = arcs_and_lines(out)
+    last = arcs_and_lines(text)[-1]
+    assert (result[-1].x0, result[-1].z0, result[-1].xc, result[-1].zc) == pytest.approx(
+        (last.x0, last.z0, last.xc, last.zc))
+    assert "G03 X60. Z-20. R10." in out.splitlines()
+
+
+def test_contour_labels_stay_first_and_last():
+    text = (SAMPLES / "programs" / "hemishell_g71.nc").read_text()
+    out, _ = rewrite(text, radial(-0.004), mode="line", tolerance=0.001)
+    lines = out.splitlines()
+    n10, n20 = lines.index(next(l for l in lines if l.startswith("N10"))), lines.index(next(l for l in lines if l.startswith("N20")))
+    assert n20 - n10 > 20  # the arc became many lines between the contour's labels
+    assert moves(out)  # and the G71/G70 program still interprets
+
+
+def test_the_self_check_measures_what_was_written():
+    out, rewriter = rewrite(HEMISHELL, radial(0.007), mode="arc", tolerance=0.002)
+    assert 0 <= rewriter.worst <= 0.002
+    assert rewriter.replaced == 2
+
+
+@pytest.mark.parametrize("feed", [60.0, 600.0, 1200.0, 3000.0])
+def test_no_block_is_shorter_than_the_look_ahead_digests(feed):
+    """Blocks under the minimum block time at the feed are merged: within tolerance silently,
+    a little beyond with a warning, far beyond refused (exit 4)."""
+    reporter = Reporter()
+    text = f"G18 G21 G98 F{feed}\nG00 X0. Z6.\nG01 Z5.\nG02 X10. Z0. R5.\nG00 X20.\n"
+    shortest = feed * 0.01 / 60.0
+    try:
+        with Source.from_text(text, "t.nc") as source:
+            rewriter = Rewriter(interpret_source(source), each(radial(0.0005)), Settings(mode="line", tolerance=0.001,
+                                min_block_time_s=0.01), reporter, "t.nc")
+            out = "".join(rewriter.run())
+    except SafetyError as exc:
+        assert "minimum block time" in exc.message and feed >= 3000.0
+        return
+    chords = [m for m in moves(out) if m.line == 4]
+    assert all(math.hypot(m.x1 - m.x0, m.z1 - m.z0) >= shortest - 1e-9 for m in chords)
+    widened = [w for w in reporter.warnings if "widened" in w.message]
+    assert rewriter.worst <= 0.001 or widened
+    assert rewriter.worst <= 0.002
+
+
+@st.composite
+def programs(draw):
+    """Random lathe profiles of lines and arcs from an absolute start."""
+    lines = ["G18 G21 G99 F0.1", "G00 X40. Z10."]
+    x, z = 20.0, 10.0
+    for _ in range(draw(st.integers(2, 8))):
+        if draw(st.booleans()):
+            x = round(x + draw(st.floats(-5, 5)), 3)
+            z = round(z - draw(st.floats(0.5, 10)), 3)
+            x = max(x, 1.0)
+            lines.append(f"G01 X{2 * x:.3f} Z{z:.3f}")
+        else:
+            radius = draw(st.floats(2, 20))
+            cw = draw(st.booleans())
+            sweep = math.radians(draw(st.floats(10, 120)))
+            start = draw(st.floats(0, 2 * math.pi))
+            xc, zc = x - radius * math.cos(start), z - radius * math.sin(start)
+            end = start + (sweep if cw else -sweep)
+            x1, z1 = xc + radius * math.cos(end), zc + radius * math.sin(end)
+            if x1 < 0.5:
+                continue
+            x1, z1 = round(x1, 3), round(z1, 3)
+            lines.append(f"{'G02' if cw else 'G03'} X{2 * x1:.3f} Z{z1:.3f} I{xc - x:.4f} K{zc - z:.4f}")
+            x, z = x1, z1
+        if draw(st.integers(0, 3)) == 0:
+            lines.append(draw(st.sampled_from(["M08", "(NOTE)", "G04 P100", "S500"])))
+    lines.append("G00 X100.")
+    return "\n".join(lines) + "\n"
+
+
+# Found by the property below before R arcs and axis reversals were split only where the output
+# grid sees them: the second arc starts 0.4 um past the apex of its circle (K-0.0004).
+APEX = ("G18 G21 G99 F0.1\nG00 X40. Z10.\nG03 X39.940 Z9.653 I-2.0000 K0.0000\n"
+        "G03 X39.582 Z8.078 I-7.0000 K-0.0004\nG00 X100.\n")
+
+
+@pytest.mark.parametrize("mode", ["line", "auto", "arc"])
+def test_an_arc_that_starts_a_hair_past_its_apex_is_held_in_every_mode(mode):
+    """Its split at the X reversal would leave a piece shorter than a grid step, which no plan
+    holds ('no plan keeps within 2.00 um'): the grid does not see that reversal, so no split."""
+    out, rewriter = rewrite(APEX, radial(-0.0078125), mode=mode, tolerance=0.002)
+    assert rewriter.replaced == 3 and rewriter.worst <= 0.002  # the two arcs, and the rapid written out
+    assert out.endswith("G00 X100. Z8.078\n")  # the rapid after it ends where it did
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(programs(), st.sampled_from(["auto", "arc", "line"]), st.floats(-0.01, 0.01))
+@example(APEX, "line", -0.0078125)
+def test_nothing_else_moves(text, mode, deviation):
+    """Every block not replaced is unchanged, in order, and every unchanged move ends where it did."""
+    try:
+        before = moves(text)
+    except Exception:
+        return  # the random arc did not pass the control's check: not a program
+    out, _ = rewrite(text, radial(deviation), mode=mode, tolerance=0.002)
+    after = moves(out)
+    originals, written = text.splitlines(), out.splitlines()
+    matched, position = {}, 0  # original line number -> output line number, for lines kept as they were
+    for number, line in enumerate(originals, 1):
+        if line in written[position:]:
+            position = written.index(line, position) + 1
+            matched[number] = position
+    kept = [line for line in originals if not _is_motion(line)]
+    assert all(number in matched for number, line in enumerate(originals, 1) if line in kept)  # none lost
+    assert sorted(matched.values()) == [matched[n] for n in sorted(matched)]  # none reordered
+    ends_before = {m.line: (m.x1, m.z1) for m in before}
+    ends_after = {m.line: (m.x1, m.z1) for m in after}
+    for number, out_number in matched.items():
+        if number in ends_before and ends_before[number][0] is not None:
+            assert ends_after[out_number] == pytest.approx(ends_before[number], abs=1e-9)
+
+
+def _is_motion(line: str) -> bool:
+    return line.startswith(("G00", "G01", "G02", "G03"))
+
+
+def test_a_cycle_contour_that_would_turn_back_is_refused():
+    text = ("G18 G21 G99\nG00 X60. Z5.\nG71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\nN10 G00 X20.\nG01 Z0. F0.1\n"
+            "X30.\nG02 X40. Z-5. R5.\nN20 G01 Z-20.\nG70 P10 Q20\n")
+
+    def lift(piece):
+        return np.tile([0.0, 0.005], (len(piece.t), 1)) if isinstance(piece.segment, Arc) else None
+
+    with pytest.raises(SafetyError) as info:
+        rewrite(text, lift, tolerance=0.001)
+    assert "one way in Z" in info.value.message and "line 4" in info.value.message
+    out, _ = rewrite(text, radial(-0.003), tolerance=0.001)  # inwards keeps Z running one way
+    assert "N20" in out
+
+
+def test_no_block_under_cutter_compensation_turns_back_under_the_nose_radius():
+    """Under G42 the control shortens each block's offset by r tan(phi/2) at each corner; no block
+    may be shorter than what its corners take away (the interference check would alarm)."""
+    text = "G18 G21 G99 F0.1 S500\nG00 X0. Z6.\nG42 G01 Z5.\nG02 X10. Z0. R5.\nG40 G00 X20.\n"
+    with Source.from_text(text, "t.nc") as source:
+        rewriter = Rewriter(interpret_source(source), each(radial(0.002)), Settings(mode="line", tolerance=0.002,
+                            min_block_time_s=0.0, nose_radius=0.8), Reporter(), "t.nc")
+        out = "".join(rewriter.run())
+    chords = [m for m in moves(out) if m.line >= 4 and m.kind == "line"][:-1]
+    for before, block, after in zip(chords, chords[1:], chords[2:]):
+        turns = [abs(math.atan2(a[0] * b[1] - a[1] * b[0], a[0] * b[0] + a[1] * b[1])) for a, b in
+                 ((_direction(before), _direction(block)), (_direction(block), _direction(after)))]
+        assert math.hypot(block.x1 - block.x0, block.z1 - block.z0) >= 0.8 * sum(math.tan(t / 2) for t in turns)
+    with pytest.raises(SafetyError) as info:  # a nose so large the chords cannot be long enough
+        with Source.from_text(text, "t.nc") as source:
+            "".join(Rewriter(interpret_source(source), each(radial(0.002)), Settings(mode="line", tolerance=0.001,
+                             min_block_time_s=0.0, nose_radius=20.0), Reporter(), "t.nc").run())
+    assert "interference" in info.value.message
+
+
+def _direction(move):
+    length = math.hypot(move.x1 - move.x0, move.z1 - move.z0)
+    return ((move.x1 - move.x0) / length, (move.z1 - move.z0) / length)
+
+
+def test_batches_of_any_size_write_the_same_program(monkeypatch):
+    """Pieces are corrected a batch of steps at a time; where a batch ends must not show in
+    the output, the joins across it included."""
+    blocks = ["G18 G21 G99", "G00 X20. Z2.", "G01 Z0. F0.1"]
+    z = 0.0
+    for index in range(300):
+        x = 20.0 + (index % 7) * 0.5
+        if index % 3 == 2:
+            blocks.append(f"G0{2 + index % 2} X{x + 1.:.3f} Z{z - 1.:.3f} R2.")
+            z -= 1.0
+        elif index % 5 == 0:  # Z alone: X keeps the direction it last travelled in
+            blocks.append(f"G01 Z{z - 0.4:.3f}")
+            z -= 0.4
+        else:
+            blocks.append(f"G01 X{x:.3f} Z{z - 0.4:.3f}")
+            z -= 0.4
+    text = "\n".join(blocks) + "\nG00 X100.\nM30\n"
+    outwards = radial(0.003)
+
+    def backlash(piece):  # each axis lags by 1 um against the way it travels (or last travelled)
+        shift = np.tile([-0.001 * piece.x_direction, -0.001 * piece.z_direction], (len(piece.t), 1))
+        radial_shift = outwards(piece)
+        return shift if radial_shift is None else shift + radial_shift
+
+    whole, rewriter = rewrite(text, backlash, tolerance=0.001)
+    assert rewriter.replaced > 250
+    for size in (1, 2, 7):
+        monkeypatch.setattr(rewrite_module, "BATCH", size)
+        assert rewrite(text, backlash, tolerance=0.001)[0] == whole
+
+
+def test_lines_sampled_together_are_sampled_as_each_alone():
+    path = [Move(LINE, 1, 10.0, 2.0, 10.0, 0.0), Move(ARC, 2, 10.0, 0.0, 12.0, -2.0, xc=12.0, zc=0.0, cw=False),
+            Move(LINE, 3, 12.0, -2.0, 12.37, -9.123)]
+    parts = [piece for move in path for piece in pieces(move)]
+    sample_lines(parts)
+    for piece in parts:
+        assert np.array_equal(piece.points, piece.segment.point_at(piece.t))
+        assert not piece.points.flags.writeable
+
+
+@given(st.one_of(st.floats(-1.0, 1.0), st.floats(-1e-3, 1e-3)), st.sampled_from([1, -1, 0]))
+def test_an_axis_runs_the_way_it_travels_or_keeps_its_way_below_half_a_grid_step(travel, last):
+    """A move of an axis the output grid does not see (a line a rounding error off the axis,
+    an arc barely past an apex) leaves its backlash where it was."""
+    steps = (0.0005, 0.001)
+    x, z = rewrite_module._travel(travel, travel, (last, last), steps)
+    assert x == (last if abs(travel) < 0.00025 else (1 if travel > 0 else -1))
+    assert z == (last if abs(travel) < 0.0005 else (1 if travel > 0 else -1))
+
+
+def test_of_two_errors_the_first_in_the_program_is_the_one_reported():
+    """Corrections are worked out a batch ahead; an error found there, or an alarm further on
+    in the batch, must not be reported before an error in an earlier block."""
+    lines = ["G18 G21 G99", "G00 X20. Z2.", "G01 Z0. F0.1", "G02 X24. Z-2. R2."]
+    lines += [f"G01 X24. Z{-2.5 - 0.5 * k:.1f}" for k in range(20)]
+    lines += ["G02 X40. Z-20. I5. K0."]  # off the circle: the control alarms here
+    text = "\n".join(lines) + "\n"
+    with pytest.raises(SafetyError) as info:
+        rewrite(text, radial(0.003), tolerance=0.001, max_correction=0.002)
+    assert "exceeds the maximum correction" in info.value.message and info.value.location.line == 4
+    with pytest.raises(InterpretationError) as alarm:  # without the first error, the alarm
+        rewrite(text, radial(0.003), tolerance=0.001)
+    assert alarm.value.location.line == 25

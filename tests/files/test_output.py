@@ -1,0 +1,269 @@
+"""No file of the user's is destroyed (postproc.files.output): links, devices, FIFOs, read-only files,
+an output that is an input, two outputs in one, two programs of one name in one folder."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import stat
+import subprocess
+import sys
+import threading
+
+import pytest
+
+from support import SAMPLES
+
+HEMISHELL = SAMPLES / "programs" / "hemishell.nc"
+CCW, CW = (SAMPLES / "ballbar" / f"v40r-100-{d}.csv" for d in ("ccw", "cw"))
+TRACES = ["--plugin", "parametric", "--ballbar", str(CCW), "--ballbar", str(CW)]
+COMMAND = [sys.executable, "-c", "from postproc.cli.main import main; main()"]
+
+
+@pytest.fixture
+def part(tmp_path):
+    path = tmp_path / "part.nc"
+    shutil.copy(HEMISHELL, path)
+    return path
+
+
+def test_a_symbolic_links_target_is_replaced_and_the_link_kept(run, part, tmp_path):
+    target = tmp_path / "released" / "part-comp.nc"
+    target.parent.mkdir()
+    target.write_text("THE OLD OUTPUT\n")
+    link = tmp_path / "current.nc"
+    link.symlink_to(target)
+    result = run("compensate", str(part), *TRACES, "-o", str(link))
+    assert result.exit_code == 0, result.stderr
+    assert link.is_symlink() and os.readlink(link) == str(target)
+    assert "COMPENSATED" in target.read_text()
+
+
+def test_a_dangling_link_gets_its_target_created(run, part, tmp_path):
+    link = tmp_path / "next.nc"
+    link.symlink_to(tmp_path / "made.nc")
+    assert run("compensate", str(part), "-o", str(link)).exit_code == 0
+    assert link.is_symlink() and (tmp_path / "made.nc").read_bytes() == HEMISHELL.read_bytes()
+
+
+def test_a_character_device_is_written_through_never_replaced(run, part):
+    before = os.stat("/dev/null")
+    result = run("compensate", str(part), *TRACES, "-o", "/dev/null")
+    assert result.exit_code == 0, result.stderr
+    after = os.stat("/dev/null")
+    assert stat.S_ISCHR(after.st_mode) and (after.st_ino, after.st_rdev) == (before.st_ino, before.st_rdev)
+
+
+def test_dev_stdout_is_the_standard_output_it_names(part):
+    result = subprocess.run(COMMAND + ["compensate", str(part), "-o", "/dev/stdout"], capture_output=True)
+    assert result.returncode == 0 and result.stdout == HEMISHELL.read_bytes()
+
+
+def test_dev_stdout_appended_to_a_file_appends(part, tmp_path):
+    log = tmp_path / "programs.txt"
+    log.write_bytes(b"EARLIER\n")
+    with open(log, "ab") as handle:
+        result = subprocess.run(COMMAND + ["compensate", str(part), "-o", "/dev/stdout"], stdout=handle,
+                                stderr=subprocess.PIPE)
+    assert result.returncode == 0
+    assert log.read_bytes() == b"EARLIER\n" + HEMISHELL.read_bytes()
+
+
+def test_a_fifo_is_written_through(run, part, tmp_path):
+    fifo = tmp_path / "to-dnc"
+    os.mkfifo(fifo)
+    received = []
+    reader = threading.Thread(target=lambda: received.append(open(fifo, "rb").read()))
+    reader.start()
+    result = subprocess.run(COMMAND + ["compensate", str(part), "-o", str(fifo)], capture_output=True, timeout=60)
+    reader.join(10)
+    assert result.returncode == 0 and received == [HEMISHELL.read_bytes()]
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode)
+
+
+def test_a_full_device_says_nothing_was_written(run, part):
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full here")
+    result = run("compensate", str(part), "-o", "/dev/full")
+    assert result.exit_code == 3
+    assert result.stderr == ("/dev/full: error: cannot write output: no space left for it (disk full, quota or file "
+                             "size limit); nothing was written\n")
+
+
+def test_a_directory_a_disk_and_a_read_only_file_are_refused(run, part, tmp_path):
+    result = run("compensate", str(part), "-o", str(tmp_path))
+    assert result.exit_code == 3 and "this is a directory; give a file name" in result.stderr
+    readonly = tmp_path / "released.nc"
+    readonly.write_text("RELEASED\n")
+    readonly.chmod(0o444)
+    result = run("compensate", str(part), "-o", str(readonly))
+    assert result.exit_code == 3 and readonly.read_text() == "RELEASED\n"
+    assert result.stderr == f"{readonly}: error: cannot write output: the file is read-only (its permissions say " \
+                            "so); nothing was written\n"
+    disks = [path for path in ("/dev/loop0", "/dev/sda", "/dev/vda") if os.path.exists(path)
+             and stat.S_ISBLK(os.stat(path).st_mode)]
+    for disk in disks[:1]:
+        result = run("compensate", str(part), "-o", disk)
+        assert result.exit_code == 3 and "this is a block device" in result.stderr
+
+
+def test_an_existing_output_keeps_its_permissions(run, part, tmp_path):
+    target = tmp_path / "out.nc"
+    target.write_text("OLD\n")
+    target.chmod(0o640)
+    assert run("compensate", str(part), "-o", str(target)).exit_code == 0
+    assert stat.S_IMODE(os.stat(target).st_mode) == 0o640 and target.read_bytes() == HEMISHELL.read_bytes()
+
+
+# ---------------------------------------------------------------------- an output that is an input
+
+
+def _same(run, tmp_path, *args):
+    """Run; must be refused with exit 2 before anything is written, every file as it was."""
+    before = {path: path.read_bytes() for path in tmp_path.rglob("*") if path.is_file()}
+    result = run(*args)
+    assert (result.exit_code, result.stdout_bytes) == (2, b""), result.stderr
+    assert {path: path.read_bytes() for path in tmp_path.rglob("*") if path.is_file()} == before
+    return result.stderr
+
+
+def test_an_output_that_is_an_input_is_refused_in_every_command(run, part, tmp_path):
+    trace = tmp_path / "ccw.csv"
+    shutil.copy(CCW, trace)
+    model = tmp_path / "m.json"
+    assert run("fit", "--plugin", "ballbar-inverse", "--ballbar", str(trace), "-o", str(model)).exit_code == 0
+    p = str(part)
+    cases = [
+        ("compensate", p, "-o", p),
+        ("compensate", p, "-o", str(tmp_path / "." / "part.nc")),
+        ("compensate", p, "--out-dir", str(tmp_path)),
+        ("compensate", p, "--report", p),
+        ("compensate", p, "--plugin", "ballbar-inverse", "--ballbar", str(trace), "-o", str(trace)),
+        ("compensate", p, "--model", str(model), "-o", str(model)),
+        ("compensate", p, "--model", str(model), "--report", str(model)),
+        ("fit", "--plugin", "ballbar-inverse", "--ballbar", str(trace), "-o", str(trace)),
+        ("path", p, "-o", p),
+        ("path", p, "--plot", p),
+        ("report", p, "-o", p),
+        ("probe-program", p, "-o", p),
+        ("simulate", "cut", p, "-o", p),
+        ("ballbar", str(trace), "--plot", str(trace)),
+        ("--log", p, "check", p),
+    ]
+    for args in cases:
+        message = _same(run, tmp_path, *args)
+        assert "it would be destroyed; write the output elsewhere" in message, (args, message)
+    assert _same(run, tmp_path, "--log", p, "check", p) == (
+        f"postproc: error: --log {p} is the input {p} (INPUT): it would be destroyed; write the output elsewhere "
+        "(nothing was written)\n")
+
+
+def test_links_to_the_input_are_the_input(run, part, tmp_path):
+    soft, hard = tmp_path / "soft.nc", tmp_path / "hard.nc"
+    soft.symlink_to(part)
+    os.link(part, hard)
+    for output in (soft, hard):
+        message = _same(run, tmp_path, "compensate", str(part), "-o", str(output))
+        assert message == (f"postproc: error: -o {output} is the input {part} (INPUT): it would be destroyed; write "
+                           "the output elsewhere (nothing was written)\n")
+
+
+def test_two_outputs_in_one_file_are_refused(run, part, tmp_path):
+    out = str(tmp_path / "out.nc")
+    message = _same(run, tmp_path, "compensate", str(part), *TRACES, "-o", out, "--report", out)
+    assert message == (f"postproc: error: --report {out} and -o {out} are the same file: one output would destroy "
+                       "the other; give them different names\n")
+
+
+def test_a_log_that_is_an_output_gets_no_line_of_the_refusal(run, part, tmp_path):
+    kept = tmp_path / "kept.nc"
+    kept.write_bytes(b"%\nO1\nM30\n%\n")  # the user's program, there before the run
+    for args in (("-o", str(kept)), ("--report", str(kept))):
+        message = _same(run, tmp_path, "--log", str(kept), "compensate", str(part), *TRACES, *args)
+        assert message.endswith(f"--log {kept} are the same file: one output would destroy the other; give them "
+                                "different names\n"), message
+
+
+@pytest.mark.parametrize("args", [
+    ("compensate", "{part}", "--machine", ""), ("compensate", "{part}", "-o", ""), ("compensate", "{part}", "--out-dir", ""),
+    ("compensate", "{part}", "--report", ""), ("compensate", "{part}", "--calibration", ""), ("check", ""),
+    ("path", "{part}", "--machine", ""), ("fit", "--plugin", "ballbar-inverse", "--ballbar", ""),
+    ("--log", "", "check", "{part}")])
+def test_an_empty_value_is_refused_never_taken_for_the_option_left_out(run, part, tmp_path, args):
+    """``--machine "$PROFILE"`` with the variable unset must not run without the profile's limits."""
+    message = _same(run, tmp_path, *(arg.format(part=part) for arg in args))
+    assert "is empty (a shell variable that is not set?)" in message, message
+
+
+def test_standard_output_redirected_onto_the_input_is_refused(part, tmp_path):
+    copy = tmp_path / "copy.nc"
+    shutil.copy(part, copy)
+    with open(copy, "ab") as appended:  # '>>' keeps the program: writing it would add to it
+        result = subprocess.run(COMMAND + ["compensate", str(copy)], stdout=appended, stderr=subprocess.PIPE,
+                                text=True)
+    assert result.returncode == 2 and copy.read_bytes() == HEMISHELL.read_bytes()
+    assert result.stderr.startswith(f"postproc: error: standard output is the input {copy} (INPUT)")
+
+
+# ---------------------------------------------------------------------- --out-dir
+
+
+def test_out_dir_is_created_with_its_parents(run, part, tmp_path):
+    folder = tmp_path / "released" / "2026-11"
+    result = run("compensate", str(part), *TRACES, "--out-dir", str(folder))
+    assert result.exit_code == 0, result.stderr
+    assert "COMPENSATED" in (folder / "part.nc").read_text()
+
+
+def test_out_dir_where_a_file_stands_is_refused(run, part, tmp_path):
+    blocker = tmp_path / "out"
+    blocker.write_text("A FILE\n")
+    result = run("compensate", str(part), "--out-dir", str(blocker))
+    assert (result.exit_code, result.stderr) == (2, f"postproc: error: --out-dir {blocker}: exists and is not a "
+                                                    "directory; give a folder\n")
+    assert blocker.read_text() == "A FILE\n"
+
+
+def test_out_dir_that_cannot_be_created_is_said(run, part, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("A FILE\n")
+    result = run("compensate", str(part), "--out-dir", str(blocker / "sub"))
+    assert result.exit_code == 3
+    assert result.stderr == (f"{blocker / 'sub'}: error: cannot create the output folder: a part of the path is a "
+                             "file, not a directory; nothing was written\n")
+
+
+def test_out_dir_made_for_a_run_that_fails_is_taken_away(run, tmp_path):
+    bad = tmp_path / "bad.nc"
+    bad.write_text("G01 X2..\n")
+    folder = tmp_path / "new"
+    assert run("compensate", str(bad), "--out-dir", str(folder)).exit_code == 3
+    assert not folder.exists()
+    nested = tmp_path / "released" / "2026-11" / "lathe2"  # its parents made for it go too
+    assert run("compensate", str(bad), "--out-dir", str(nested)).exit_code == 3
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["bad.nc"]
+
+
+def test_two_programs_of_one_name_into_one_folder_are_refused(run, part, tmp_path):
+    other = tmp_path / "lathe2" / "part.nc"
+    other.parent.mkdir()
+    other.write_text("G00 X1. Z1.\n")
+    out = tmp_path / "out"
+    message = _same(run, tmp_path, "compensate", str(part), str(other), "--out-dir", str(out))
+    assert message == (f"postproc: error: {part} and {other} have the same name: in --out-dir {out} one would "
+                       "overwrite the other; compensate them into different folders\n")
+    assert not out.exists()
+
+
+def test_stdin_has_no_name_for_out_dir(run, tmp_path):
+    result = run("compensate", "-", "--out-dir", str(tmp_path / "o"), input=HEMISHELL.read_bytes())
+    assert result.exit_code == 2 and "standard input (-) has none: give -o" in result.stderr
+
+
+def test_the_python_api_refuses_an_output_that_is_its_input(part):
+    import postproc
+    from postproc.diagnostics import UsageError
+
+    with pytest.raises(UsageError, match="it would be destroyed"):
+        postproc.Pipeline().compensate_file(str(part), str(part))
+    assert part.read_bytes() == HEMISHELL.read_bytes()

@@ -1,0 +1,318 @@
+"""Golden tests of the lathe interpreter, one feature at a time (radius mm throughout)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from support.interpret import geometry, moves, steps
+from postproc.diagnostics import InterpretationError, Reporter
+
+START = "G18 G21 G99 F0.2\nG00 X100. Z10.\n"
+
+
+def test_diameter_x_and_incremental_u_w():
+    result = moves(START + "G01 X50. Z0.\nU-10. W-5.\nX30.\n")
+    assert [geometry(m)[2:4] for m in result[1:]] == [
+        ((50.0, 10.0), (25.0, 0.0)),
+        ((25.0, 0.0), (20.0, -5.0)),
+        ((20.0, -5.0), (15.0, -5.0)),
+    ]
+
+
+def test_radius_programming_when_the_profile_says_so():
+    result = moves(START + "G01 X50.\n", diameter_x=False)
+    assert geometry(result[-1])[3] == (50.0, 10.0)
+
+
+def test_no_decimal_point_counts_least_input_increments():
+    result = moves(START + "G01 X10 Z-5\n")
+    assert geometry(result[-1])[3] == (0.005, -0.005)
+    result = moves(START + "G01 X10 Z-5\n", calculator_input=True)
+    assert geometry(result[-1])[3] == (5.0, -5.0)
+    result = moves("G20 G99 F0.01\nG00 X1. Z1.\nG01 X10 Z-5\n")
+    assert geometry(result[-1])[3] == pytest.approx((0.0005 * 25.4, -0.0005 * 25.4))
+
+
+@pytest.mark.parametrize("increment, inch, expected", [
+    ("IS-A", False, 1.18), ("IS-B", False, 0.118), ("IS-C", False, 0.0118),
+    ("IS-A", True, 0.118 * 25.4), ("IS-B", True, 0.0118 * 25.4), ("IS-C", True, 0.00118 * 25.4),
+])
+def test_a_plain_number_is_in_least_input_increments_without_calculator_input(increment, inch, expected):
+    units = "G20" if inch else "G21"
+    for calculator in (False, None):  # stated false, or not stated: the FANUC default
+        result = moves(f"G18 {units} G99 F0.01\nG00 X100. Z1.\nG01 X118 Z-1.\n", input_increment=increment,
+                       calculator_input=calculator)
+        assert result[-1].x1 == pytest.approx(expected / 2.0)
+
+
+@pytest.mark.parametrize("inch", [False, True])
+def test_calculator_input_reads_a_plain_number_in_mm_or_inches(inch):
+    units, scale = ("G20", 25.4) if inch else ("G21", 1.0)
+    program = f"G18 {units} G99 F0.01\nG00 X100. Z1.\nG01 X118 Z-1\nG02 X138 Z-11 R10\nG01 W-5 ,C1\nU4 W-4\n"
+    result = moves(program, calculator_input=True)
+    assert result[1].x1 == pytest.approx(59.0 * scale) and result[1].z1 == pytest.approx(-1.0 * scale)
+    arc = result[2]
+    assert math.hypot(arc.x1 - arc.xc, arc.z1 - arc.zc) == pytest.approx(10.0 * scale)
+    chamfered = result[3]  # W-5 with a 1 (mm or in) chamfer before the diagonal move
+    assert chamfered.z1 == pytest.approx(-15.0 * scale)
+
+
+def test_inch_program_is_converted_to_mm():
+    result = moves("G20 G99 F0.01\nG00 X2. Z0.1\nG01 Z-1.\n")
+    assert geometry(result[-1])[2:4] == ((25.4, 2.54), (25.4, -25.4))
+
+
+def test_g02_g03_with_i_k_are_radius_values_incremental_from_the_start():
+    # The hemishell: from the pole down to the equator is a G03 (theta decreasing).
+    result = moves("G18 G21 G99 F0.1\nG00 X0. Z60.\nG01 Z57.15\nG03 X114.3 Z0. I0. K-57.15\n")
+    arc = result[-1]
+    assert geometry(arc) == ("arc", 4, (0.0, 57.15), (57.15, 0.0), (0.0, 0.0), "ccw")
+
+
+def test_r_arcs_short_and_long():
+    # From (10, 0) to (20, -10): about (20, 0) theta runs 180 -> 270, a G02 quarter.
+    short = moves(START + "G01 X20. Z0.\nG02 X40. Z-10. R10.\n")[-1]
+    assert geometry(short)[4:] == ((20.0, 0.0), "cw")
+    # Negative R takes the other centre and the 270 degree way round.
+    long = moves(START + "G01 X20. Z0.\nG02 X40. Z-10. R-10.\n")[-1]
+    assert geometry(long)[4] == (10.0, -10.0)
+    assert math.hypot(long.x1 - long.xc, long.z1 - long.zc) == pytest.approx(10.0)
+
+
+def test_arc_direction_convention_g02_is_theta_increasing():
+    # A quarter from theta = 0 (+X) to theta = 90 (+Z) about (0, 0) is a G02.
+    arc = moves("G18 G21 G99 F0.1\nG00 X20. Z0.\nG02 X0. Z10. R10.\n")[-1]
+    assert geometry(arc)[4:] == ((0.0, 0.0), "cw")
+
+
+def test_arc_radius_mismatch_is_the_controls_alarm():
+    with pytest.raises(InterpretationError) as info:
+        moves(START + "G01 X20. Z0.\nG02 X40. Z-10. I5. K0.\n")
+    assert "PS0020" in info.value.message and info.value.location.line == 4
+
+
+def test_r_arc_shorter_than_its_chord_is_refused():
+    with pytest.raises(InterpretationError) as info:
+        moves(START + "G01 X20. Z0.\nG02 X60. Z-10. R5.\n")
+    assert "R arc too short" in info.value.message
+    assert (info.value.location.line, info.value.location.col) == (4, 16)
+
+
+def test_dwell_words_are_time_not_motion():
+    result = moves(START + "G04 X1.5\nG04 U2.\nG04 P500\n")
+    assert len(result) == 1
+
+
+def test_reference_return_makes_the_position_unknown_until_an_absolute_move():
+    result = moves(START + "G28 U0. W0.\nG01 W-5.\nG00 X20. Z5.\nG01 Z0.\n")
+    kinds = [(m.kind, m.x1, m.z1) for m in result[1:]]
+    assert kinds[0] == ("rapid", None, None)
+    assert kinds[1][1:] == (None, None)  # incremental from an unknown point stays unknown
+    assert kinds[2] == ("rapid", 10.0, 5.0)
+    assert result[-1].known
+
+
+def test_g50_sets_the_coordinates_and_with_s_only_clamps_the_spindle():
+    result = moves("G18 G21 G99 F0.2\nG50 X200. Z100.\nG50 S2000\nG01 W-10.\n")
+    assert geometry(result[-1])[2:4] == ((100.0, 100.0), (100.0, 90.0))
+
+
+def test_work_offset_change_loses_the_position():
+    result = moves("G54\n" + START + "G55\nG01 W-1.\n")
+    assert result[-1].x0 is None
+
+
+def test_modal_states_follow_the_blocks():
+    result = steps(START + "G98 G96 S200 G42\nG01 Z0. F100.\nG40 G00 X120.\nT0303\n")
+    modal = result[-1].modal
+    assert (modal.per_rev, modal.comp, modal.tool, modal.offset) == (False, 40, 3, 3)
+    feed = [m for s in result for m in s.moves if m.kind == "line"][0]
+    assert (feed.comp, feed.feed, feed.per_rev) == (42, 100.0, False)
+
+
+def test_chamfer_and_corner_radius_are_rows_of_their_own():
+    result = moves(START + "G01 X40. Z0.\nZ-20. ,C2.\nX80. ,R5.\nZ-40.\n")
+    rows = [geometry(m) for m in result[2:]]
+    assert rows[0][2:4] == ((20.0, 0.0), (20.0, -18.0))
+    assert rows[1][:4] == ("line", 4, (20.0, -18.0), (22.0, -20.0))
+    assert rows[2][2:4] == ((22.0, -20.0), (35.0, -20.0))
+    fillet = rows[3]
+    # Turning from +X to -Z about (35, -25): theta 90 -> 0, decreasing, a G03.
+    assert fillet[:2] == ("arc", 5) and fillet[4] == (35.0, -25.0) and fillet[5] == "ccw"
+    assert rows[4][2:4] == ((40.0, -25.0), (40.0, -40.0))
+
+
+def test_corner_without_a_following_move_is_refused():
+    with pytest.raises(InterpretationError) as info:
+        moves(START + "G01 X40. ,C2.\nG00 X100.\n")
+    assert "PS0051" in info.value.message and info.value.location.line == 3
+
+
+G71_PROGRAM = """G18 G21 G99
+T0101
+G00 X60. Z2.
+G71 U1. R0.5
+G71 P10 Q20 U0.4 W0.1 F0.3
+N10 G00 X20.
+G01 Z-10. F0.1
+X40. Z-20.
+N20 X62.
+G00 X100. Z50.
+T0202
+G00 X60. Z2.
+G70 P10 Q20
+G00 X100.
+"""
+
+
+def test_g71_contour_is_not_run_in_sequence_and_g70_runs_it():
+    result = moves(G71_PROGRAM)
+    rows = [(m.line, m.kind, m.role) for m in result]
+    assert rows[:2] == [(3, "rapid", "run"), (5, "cycle", "run")]
+    assert rows[2] == (10, "rapid", "run")  # after G71 the tool is back at the start point
+    assert geometry(result[2])[2] == (30.0, 2.0)
+    g70 = [r for r in rows if r[2] == "replay"]
+    assert [r[0] for r in g70] == [6, 7, 8, 9]
+    assert geometry(result[-2])[1:4] == (13, (31.0, -20.0), (30.0, 2.0))  # G70 returns to its start
+    assert geometry(result[-1])[2] == (30.0, 2.0)
+
+
+def test_contour_blocks_are_marked_and_keep_their_geometry():
+    result = steps(G71_PROGRAM)
+    contour = [s for s in result if s.in_contour]
+    assert [s.block.line for s in contour] == [6, 7, 8, 9]
+    assert [m.role for s in contour for m in s.moves] == ["contour"] * 4
+    assert geometry(contour[1].moves[0])[2:4] == ((10.0, 2.0), (10.0, -10.0))
+
+
+def test_missing_or_repeated_p_q_labels_are_refused():
+    with pytest.raises(InterpretationError) as info:
+        moves(G71_PROGRAM.replace("Q20 U0.4", "Q30 U0.4"))
+    assert "no block N30" in info.value.message and info.value.location.line == 5
+    with pytest.raises(InterpretationError) as info:
+        moves(G71_PROGRAM + "N10 G00 X1.\n")
+    assert "N10 stands on 2 blocks" in info.value.message
+
+
+def test_threading_and_single_pass_cycles_are_one_row_each():
+    program = START + "G00 X30. Z5.\nG32 Z-20. F1.5\nG00 X40.\nG92 X29. Z-20. F1.5\nX28.5\nG90 X25. Z-30. F0.2\nG76 P010060 Q50 R0.02\nG76 X27. Z-20. P900 Q300 F1.5\nG75 X10. Z-10. P1000 Q2000 F0.1\n"
+    result = moves(program)
+    assert [(m.line, m.kind) for m in result[2:]] == [
+        (4, "thread"), (5, "rapid"), (6, "thread"), (7, "thread"), (8, "cycle"), (10, "thread"), (11, "cycle"),
+    ]
+    assert result[4].x0 == result[4].x1 == 20.0  # a cycle ends where it began
+
+
+def test_system_b_uses_g90_g91_and_g77():
+    program = "G18 G21 G95 F0.2\nG90 G00 X100. Z10.\nG91 G01 X-20. Z-5.\nG90 G77 X50. Z-10.\n"
+    result = moves(program, gcode_system="B")
+    assert geometry(result[1])[3] == (40.0, 5.0)
+    assert result[2].kind == "cycle"
+
+
+def test_macro_constants_are_evaluated_and_unknowns_pass_through_with_a_warning():
+    reporter = Reporter()
+    program = START + "#1 = 20.\n#2 = #1 * 2\nG01 X#2 Z[#1 - 25.]\nG01 X#500\nG01 Z-10.\nG00 X50.\n"
+    result = moves(program, reporter)
+    assert geometry(result[1])[3] == (20.0, -5.0)
+    assert (result[2].x1, result[2].z1, result[2].exact) == (None, -5.0, False)
+    assert result[3].x0 is None
+    assert geometry(result[4])[3] == (25.0, -10.0)
+    assert any("cannot be interpreted" in str(w) and ":6:" in str(w) for w in reporter.warnings)
+
+
+def test_jump_targets_forget_what_only_one_path_knew():
+    program = START + "#1 = 5.\nN100\nG01 X#1\n#1 = #1 + 1\nIF [#1 LT 10] GOTO 100\n"
+    result = moves(program)
+    assert result[1].x1 is None and result[1].x0 is None
+
+
+def test_subprogram_call_and_block_delete_warn():
+    reporter = Reporter()
+    result = moves(START + "M98 P1000\nG01 W-1.\n/G01 X10.\nG00 X50. Z5.\n", reporter)
+    assert result[1].x0 is None
+    text = "\n".join(str(w) for w in reporter.warnings)
+    assert "M98" in text and "block delete" in text
+
+
+@pytest.mark.parametrize("call", ["G65 P9010 A1. B2", "G66 P9010 A1.\nX20. Z1.\nG67"])
+def test_macro_calls_with_number_arguments_warn_and_lose_the_position(call):
+    """Arguments are any numbers (no format alarm); what the macro does is not interpreted."""
+    reporter = Reporter()
+    result = moves(START + call + "\nG01 W-1.\nG00 X50. Z5.\n", reporter)
+    assert any(m.x0 is None for m in result)
+    assert (result[-1].x1, result[-1].z1) == (25.0, 5.0)
+    assert "macro" in str(reporter.warnings[0])
+
+
+def test_unknown_g_code_and_unsupported_codes_pass_through_with_a_warning():
+    reporter = Reporter()
+    result = moves(START + "G187 P1\nG01 X50.\nG00 X20. Z5.\n", reporter)
+    assert (result[1].x0, result[1].z0, result[1].x1) == (None, None, 25.0)
+    assert (result[-1].x1, result[-1].z1) == (10.0, 5.0)
+    assert "G187" in str(reporter.warnings[0])
+
+
+def test_address_for_an_axis_the_lathe_lacks_is_refused():
+    with pytest.raises(InterpretationError) as info:
+        moves(START + "G01 X10. Y5.\n")
+    assert "PS0009" in info.value.message and info.value.location.col == 10
+
+
+def test_feed_move_without_feed_warns_once_and_f0_is_refused():
+    reporter = Reporter()
+    moves("G00 X10. Z1.\nG01 Z0.\nG01 Z-1.\n", reporter)
+    assert len([w for w in reporter.warnings if "F word" in w.message]) == 1
+    with pytest.raises(InterpretationError):
+        moves("G00 X10. Z1.\nG01 Z0. F0\n")
+
+
+def test_g53_and_g28_alone():
+    result = moves(START + "G53 G00 X0.\nG28\n")
+    assert (result[1].x1, result[1].z1) == (None, 10.0)
+    assert (result[2].x1, result[2].z1) == (None, None)
+
+
+def test_full_circle_with_i_k():
+    arc = moves(START + "G01 X20. Z0.\nG02 X20. Z0. I-5. K0.\n")[-1]
+    assert geometry(arc)[2:6] == ((10.0, 0.0), (10.0, 0.0), (5.0, 0.0), "cw")
+
+
+def test_full_circle_without_end_point():
+    arc = moves(START + "G01 X20. Z0.\nG03 I0. K5.\n")[-1]
+    assert geometry(arc)[2:6] == ((10.0, 0.0), (10.0, 0.0), (10.0, 5.0), "ccw")
+
+
+@pytest.mark.parametrize("plane, arc", [("G17", "G02 C15.257 R30.578"), ("G17", "G03 H30. R20."),
+                                         ("G19", "G02 Y5. R10."), ("G17", "G02 J5.")])
+def test_an_arc_in_another_plane_is_said_and_leaves_the_position_unknown(plane, arc):
+    """Whatever words it has (a C or Y end point, only a radius or a centre), an arc off the ZX
+    plane moves X or Z on its way: it passes through with a warning and nothing after it is
+    placed until an absolute move."""
+    reporter = Reporter()
+    result = steps(f"G18 G21 G99 F0.2\nG00 X100. Z10.\n{plane}\n{arc}\nG01 W-5.\nG18\nG00 X20. Z5.\n", reporter,
+                   axes="XZCY")
+    (warning,) = reporter.warnings
+    assert warning.location.line == 4 and f"an arc in plane {plane}" in warning.message
+    assert not result[3].interpreted
+    after = result[4].moves[0]
+    assert (after.x0, after.z0, after.x1, after.z1) == (None, None, None, None)
+    assert (result[-1].moves[0].x1, result[-1].moves[0].z1) == (10.0, 5.0)
+
+
+def test_a_rotary_move_alone_leaves_x_and_z_where_they_are():
+    reporter = Reporter()
+    result = steps(START + "G01 C90.\nG01 Z0.\n", reporter, axes="XZC")
+    assert reporter.warnings == [] and result[2].moves == ()
+    assert (result[3].moves[0].x0, result[3].moves[0].z0) == (50.0, 10.0)
+
+
+def test_the_plain_number_warning_names_the_literal_when_the_address_is_also_an_expression():
+    """Z-#1 Z1: the warning about the plain Z1 quotes Z1, not the expression given first (which made
+    an internal error of it)."""
+    reporter = Reporter()
+    moves(START + "Z-#1 Z1\n", reporter=reporter)
+    warned = [w for w in reporter.warnings if "has no decimal point" in w.message]
+    assert len(warned) == 1 and warned[0].message.startswith("Z1 has no decimal point")

@@ -1,0 +1,47 @@
+"""The program source's quick scans: GOTO targets, subprogram calls, label places."""
+
+from __future__ import annotations
+
+from postproc.diagnostics import Reporter
+from postproc.interpret.program import interpret_source
+from postproc.syntax.source import Source
+
+PROGRAM = """%
+O1000
+G00 X10. Z1.
+m98 p2000
+M 0 98 P 3 2000 (three times O2000)
+G65 P9010 A1. B2.
+g065p9010
+IF [#1 GT 2] GOTO 100
+GOTO #5
+goto20
+N100 G01 X20. F.1
+M30
+O2000
+G01 W-1.
+M99
+%
+"""
+
+
+def test_calls_and_goto_targets_are_found_whatever_the_case_and_spacing():
+    with Source.from_text(PROGRAM, "t.nc") as source:
+        labels = source.labels
+        assert labels.calls == {2000: 2, 9010: 2}
+        assert labels.goto_targets == {100, 20}
+        assert labels.computed_goto
+        assert labels.lines[100] == [11] and labels.counts[100] == 1
+
+
+def test_one_p_word_read_by_two_call_codes_is_one_call():
+    with Source.from_text("G65 M98 P7000\n", "t.nc") as source:
+        assert source.labels.calls == {7000: 1}
+
+
+def test_a_subprogram_called_from_two_places_is_not_compensated():
+    reporter = Reporter()
+    with Source.from_text(PROGRAM, "t.nc") as source:
+        steps = list(interpret_source(source, reporter=reporter))
+    assert any("O2000 is called from 2 places" in str(w) for w in reporter.warnings)
+    assert all(step.shared for step in steps if step.block.line == 14)
