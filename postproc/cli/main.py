@@ -85,7 +85,7 @@ def _say_project_values() -> None:
     taken = [param.opts[0] if isinstance(param, click.Option) else param.name for param in context.command.params
              if context.get_parameter_source(param.name) is ParameterSource.DEFAULT_MAP]
     if taken:
-        from .progress import inform
+        from ..compensate.progress import inform
 
         inform(f"{project.path}: project file: {', '.join(taken)} from it (--no-project ignores it)")
 
