@@ -42,7 +42,7 @@ from ..machine.profile import DEFAULT, MachineProfile
 from ..interpret.program import interpret_source
 from .region import Region
 from .request import Request
-from .rewrite import Piece, Rewriter, Settings
+from .rewrite import Piece, Rewriter
 from ..syntax.source import Source, count_lines
 
 HEADER_MARK = "POSTPROC"
@@ -160,29 +160,11 @@ class Pipeline:
             for compensator in self.compensators:
                 if compensator.needs_survey:
                     self._guarded(compensator, "survey", compensator.survey, moves, model=self.request.model)
-        settings = Settings(
-            tolerance=self.request.tolerance,
-            mode=self.request.mode,
-            max_arc_radius=self.profile.max_arc_radius,
-            arc_radius_tolerance=self.profile.arc_radius_tolerance,
-            decimals_mm=self.profile.output_decimals_mm,
-            decimals_inch=self.profile.output_decimals_inch,
-            diameter=self.profile.diameter_x,
-            system=self.profile.gcode_system,
-            min_block_time_s=self.profile.min_block_time_s,
-            max_spindle_rpm=self.profile.max_spindle_rpm,
-            nose_radius=self.profile.nose_radius_mm,
-            x_limits=self.profile.x_limits,
-            z_limits=self.profile.z_limits,
-            default_tolerance=self.profile.default_tolerance,
-            max_correction=self.max_correction,
-            keep_unplannable=self.request.keep_unplannable,
-            macro_values=self.request.macro_values,
-        )
         opening, anchor = self._prologue(source)
         steps = interpret_source(source, self.profile, self.reporter, rewriting=True)
         region = Region(self.request.regions)
-        rewriter = Rewriter(steps, self._corrector(), settings, self.reporter, source.name, selects=region)
+        rewriter = Rewriter(steps, self._corrector(), self.profile, self.request, self.reporter, source.name,
+                            selects=region)
         lead: list[str] = []  # the tape mark and program number go before the provenance block
         written = 0  # blocks written: one per source line up to the anchor, none of them replaced
         with tempfile.SpooledTemporaryFile(max_size=1 << 20) as body:

@@ -32,10 +32,13 @@ import numpy as np
 from ..interpret import gcodes as G
 from ..syntax.blocks import Block
 from ..diagnostics import Location, PostprocError, Reporter, SafetyError, UnplannableBlock
+from ..machine import bounds
 from ..machine.bounds import MAX_TOLERANCE
+from ..machine.profile import MachineProfile
 from .compensator import Piece
 from .emitter import Style, Writer, with_motion_code
 from .farthest import farthest, within
+from .request import Request
 from ..geometry import Arc, Line, segment_of
 from ..interpret.interpreter import Interpreter
 from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
@@ -205,35 +208,20 @@ class Entry:
         return any(move.role in (RUN, CONTOUR, CORNER) for move in self.step.moves)
 
 
-@dataclass
-class Settings:
-    tolerance: float | None = None  #: None: the profile's default for the program's units
-    mode: str = "auto"
-    max_arc_radius: float = 5000.0
-    arc_radius_tolerance: float = 0.01
-    decimals_mm: int = 3
-    decimals_inch: int = 4
-    diameter: bool = True
-    system: str = "A"
-    min_block_time_s: float = 0.001
-    max_spindle_rpm: float = 4000.0
-    x_limits: tuple[float, float] | None = None
-    z_limits: tuple[float, float] | None = None
-    nose_radius: float = 0.4
-    default_tolerance: Callable[[bool], float] = lambda inch: 0.001
-    max_correction: float = math.inf  #: mm; a larger correction is refused
-    keep_unplannable: bool = False  #: leave a block that cannot be held uncompensated, with a warning
-    macro_values: str = REFUSE  #: a block whose geometry reads macro variables: REFUSE, KEEP or NUMBERS
-
-
 class Rewriter:
     """Streams steps to output text, replacing the moves the corrector changes."""
 
-    def __init__(self, steps: Iterable[Step], corrector: Corrector, settings: Settings, reporter: Reporter,
-                 file: str = "<program>", selects: Callable[[Step, Move], bool] | None = None):
+    def __init__(self, steps: Iterable[Step], corrector: Corrector, profile: MachineProfile, request: Request,
+                 reporter: Reporter, file: str = "<program>", selects: Callable[[Step, Move], bool] | None = None):
+        """``profile``: the machine the program runs on (its grid, limits and control rules, and
+        how the self-check reads the replacement back); ``request``: what this run was asked for
+        (tolerance, mode, maximum correction, the choices for blocks that cannot be held or read
+        macro variables); its measurements and compensators are the corrector's business."""
         self.steps = steps
         self.corrector = corrector
-        self.settings = settings
+        self.profile = profile
+        self.request = request
+        self.max_correction = bounds.in_force(request.tolerance, request.max_correction, profile)  # mm
         self.reporter = reporter
         self.file = file
         self.selects = selects or (lambda step, move: True)
@@ -277,10 +265,10 @@ class Rewriter:
             self._join(previous, None)
         yield from self._flush(window)
         if len(self.macro_lines) > NAMED:
-            done = ("left uncompensated" if self.settings.macro_values == KEEP
+            done = ("left uncompensated" if self.request.macro_values == KEEP
                     else "written with their macro values as numbers")
             self.reporter.warn(f"{len(self.macro_lines)} blocks in all {done} (--macro-values "
-                               f"{self.settings.macro_values}); the first {NAMED} are named above", Location(self.file))
+                               f"{self.request.macro_values}); the first {NAMED} are named above", Location(self.file))
 
     def _corrected(self, steps: Iterable[Step]) -> Iterator[list[Entry]]:
         """The steps in batches of at most BATCH, each motion step with its edits: the pieces
@@ -354,9 +342,9 @@ class Rewriter:
                     shift = np.zeros((len(piece.t), 2))
                 else:
                     size = next(sizes)
-                    if size > self.settings.max_correction and entry.refusal is None:  # raised in program order
+                    if size > self.max_correction and entry.refusal is None:  # raised in program order
                         entry.refusal = SafetyError(f"a correction of {size:.4f} mm exceeds the maximum correction "
-                                                    f"{self.settings.max_correction:g} mm (--max-correction)",
+                                                    f"{self.max_correction:g} mm (--max-correction)",
                                                     Location(self.file, piece.move.line))
                     largest = max(largest, size)
                 targets.append(Target.along(piece.segment, piece.t, shift, piece.points))
@@ -432,9 +420,9 @@ class Rewriter:
             and step.block.delete is None
             and not self._has_corner(step.block)
             and step.block.statement is None
-            and (self.settings.macro_values == NUMBERS or macro_word(step.block) is None)
+            and (self.request.macro_values == NUMBERS or macro_word(step.block) is None)
             and (step.block.fields is not None  # canonical: no G code but G00-G03
-                 or not any(letter == "G" and _group(value, self.settings.system) in (G.ONE_SHOT, None)
+                 or not any(letter == "G" and _group(value, self.profile.gcode_system) in (G.ONE_SHOT, None)
                             for letter, value in step.block.codes))
         )
 
@@ -483,9 +471,7 @@ class Rewriter:
         inch = step.modal.inch
         grid = self._grids.get(inch)
         if grid is None:
-            settings = self.settings
-            grid = self._grids[inch] = Grid(settings.decimals_inch if inch else settings.decimals_mm, inch,
-                                            settings.diameter)
+            grid = self._grids[inch] = self.profile.grid(inch)
         return grid
 
     def _steps(self, step: Step) -> tuple[float, float]:
@@ -508,9 +494,9 @@ class Rewriter:
         return found
 
     def _tolerance(self, step: Step) -> float:
-        if self.settings.tolerance is not None:
-            return self.settings.tolerance
-        return self.settings.default_tolerance(step.modal.inch)
+        if self.request.tolerance is not None:
+            return self.request.tolerance
+        return self.profile.default_tolerance(step.modal.inch)
 
     def _snap(self, step: Step, point) -> tuple[float, float]:
         return self._grid(step).snap(*point)
@@ -546,14 +532,14 @@ class Rewriter:
                 relies = not sets_mode and any(value is not None for value in fields[2:6])  # X Z I K
             else:
                 codes = [value for letter, value in block.codes if letter == "G"]
-                sets_mode = any(_group(value, self.settings.system) == G.MOTION for value in codes)
+                sets_mode = any(_group(value, self.profile.gcode_system) == G.MOTION for value in codes)
                 relies = (
                     any(letter in "XZUWIK" for letter, _ in block.codes)
                     and not sets_mode
-                    and not any(_group(value, self.settings.system) == G.ONE_SHOT for value in codes)
+                    and not any(_group(value, self.profile.gcode_system) == G.ONE_SHOT for value in codes)
                 )
             if relies and self.mode_now is not None and before is not None and self.mode_now != before:
-                writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
+                writer = Writer(self._grid(step), self.profile.gcode_system, step.modal.absolute)
                 yield with_motion_code(block, writer.code(before, Style.of(block)))
                 self.mode_now = before
                 return
@@ -562,14 +548,14 @@ class Rewriter:
             self._follow_contour(step, None)
             yield block.raw
             return
-        if self.settings.macro_values == NUMBERS:
+        if self.request.macro_values == NUMBERS:
             word = macro_word(block)
             if word is not None:
                 self._said_macro(block, word, "its macro values are written as numbers (--macro-values numbers): "
                                               "the block no longer follows the variables it reads")
         cuts = self._cuts(entry)
         self._within_limits(step, cuts)
-        writer = Writer(self._grid(step), self.settings.system, step.modal.absolute)
+        writer = Writer(self._grid(step), self.profile.gcode_system, step.modal.absolute)
         lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
         self._self_check(entry, lines, cuts)
         self._near_nominal(entry, cuts)
@@ -623,7 +609,7 @@ class Rewriter:
         rewritten (NUMBERS, or no such word). ``follower``: the block that is left uncompensated
         instead, for a corner block that would have to be written out to meet it."""
         word = macro_word(entry.step.block)
-        policy = self.settings.macro_values
+        policy = self.request.macro_values
         if word is None or policy == NUMBERS:
             return False
         block = entry.step.block
@@ -664,7 +650,7 @@ class Rewriter:
                 if edit is not None:
                     edit.plans = [self._plan(step, target) for target in edit.targets]
         except UnplannableBlock as exc:
-            if not self.settings.keep_unplannable:
+            if not self.request.keep_unplannable:
                 raise
             entry.edits = [None] * len(step.moves)
             entry.kept = True
@@ -672,14 +658,13 @@ class Rewriter:
             self.reporter.warn(f"block left uncompensated (--keep-unplannable): {exc.cause}", exc.location)
 
     def _plan(self, step: Step, target: Target) -> Plan:
-        settings = self.settings
         key = (self._tolerance(step), step.modal.inch)
         limits = self._limits.get(key)
         if limits is None:
-            limits = self._limits[key] = Limits(key[0], self._grid(step), settings.arc_radius_tolerance,
-                                                settings.max_arc_radius)
+            limits = self._limits[key] = Limits(key[0], self._grid(step), self.profile.arc_radius_tolerance,
+                                                self.profile.max_arc_radius)
         try:
-            result = plan(target, limits, settings.mode)
+            result = plan(target, limits, self.request.mode)
         except PlanError as exc:
             raise self._unplannable(step, exc.limit, str(exc), exc.needed) from None
         if len(result.cuts) > 1:  # one block has no neighbour to merge with
@@ -717,10 +702,10 @@ class Rewriter:
             feed = move.feed
             if move.per_rev:
                 x = min(min(abs(c.x0), abs(c.x1)) for c in cuts)
-                feed *= step.modal.rpm(x, self.settings.max_spindle_rpm)
-            lookahead = feed * self.settings.min_block_time_s / 60.0
+                feed *= step.modal.rpm(x, self.profile.max_spindle_rpm)
+            lookahead = feed * self.profile.min_block_time_s / 60.0
         comp = move.comp if move is not None and move.comp in (41, 42) else None
-        nose = self.settings.nose_radius
+        nose = self.profile.nose_radius_mm
 
         def rule(cuts: list[Cut], i: int) -> tuple[float, str]:
             need, why = lookahead, "the minimum block time at this feed"
@@ -764,7 +749,7 @@ class Rewriter:
 
     def _within_limits(self, step: Step, cuts: list[Cut]) -> None:
         """A compensated move must stay inside the machine's soft limits (the profile's)."""
-        for axis, limits, name in ((0, self.settings.x_limits, "x"), (1, self.settings.z_limits, "z")):
+        for axis, limits, name in ((0, self.profile.x_limits, "x"), (1, self.profile.z_limits, "z")):
             if limits is None:
                 continue
             values = np.concatenate([cut.sample(1.0)[:, axis] for cut in cuts])
@@ -820,7 +805,7 @@ class Rewriter:
         first = cuts[0]
         checker = self._checker
         if checker is None:
-            checker = self._checker = Interpreter(replace(_profile_for(self.settings), name="self-check"), Reporter(),
+            checker = self._checker = Interpreter(replace(self.profile, name="self-check"), Reporter(),
                                                   self.file)
         checker.x, checker.z = first.x0, first.z0
         checker.modal = checker.with_motion(step.modal, self.mode_now)
@@ -966,13 +951,6 @@ def _monotone(cuts: list[Cut], axis: int) -> int:
 
 def _numbers(cut: Cut) -> tuple[float, ...]:
     return (cut.x0, cut.z0, cut.x1, cut.z1, cut.xc or 0.0, cut.zc or 0.0, float(bool(cut.cw)), float(cut.rapid))
-
-
-def _profile_for(settings: Settings):
-    from ..machine.profile import DEFAULT
-
-    return replace(DEFAULT, gcode_system=settings.system, diameter_x=settings.diameter,
-                   arc_radius_tolerance=settings.arc_radius_tolerance)
 
 
 def _group(value, system: str) -> str | None:

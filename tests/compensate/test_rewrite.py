@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -16,7 +17,9 @@ from postproc.geometry import Arc
 from postproc.interpret.program import interpret_source
 from postproc.compensate import rewrite as rewrite_module
 from postproc.interpret.motion import ARC, LINE, Move
-from postproc.compensate.rewrite import Rewriter, Settings, pieces, sample_lines
+from postproc.compensate.request import Request
+from postproc.compensate.rewrite import Rewriter, pieces, sample_lines
+from postproc.machine.profile import DEFAULT
 from postproc.compensate.segmenter import chord_minimum
 from postproc.syntax.source import Source
 
@@ -40,9 +43,10 @@ def each(correct):
     return lambda pieces: [correct(piece) for piece in pieces]
 
 
-def rewrite(text: str, correct, **options) -> tuple[str, Rewriter]:
+def rewrite(text: str, correct, profile=DEFAULT, **options) -> tuple[str, Rewriter]:
     with Source.from_text(text, "t.nc") as source:
-        rewriter = Rewriter(interpret_source(source), each(correct), Settings(**options), Reporter(), "t.nc")
+        rewriter = Rewriter(interpret_source(source, profile), each(correct), profile, Request(**options), Reporter(),
+                            "t.nc")
         return "".join(rewriter.run()), rewriter
 
 
@@ -127,8 +131,8 @@ def test_no_block_is_shorter_than_the_look_ahead_digests(feed):
     shortest = feed * 0.01 / 60.0
     try:
         with Source.from_text(text, "t.nc") as source:
-            rewriter = Rewriter(interpret_source(source), each(radial(0.0005)), Settings(mode="line", tolerance=0.001,
-                                min_block_time_s=0.01), reporter, "t.nc")
+            rewriter = Rewriter(interpret_source(source), each(radial(0.0005)), replace(DEFAULT, min_block_time_s=0.01),
+                                Request(mode="line", tolerance=0.001), reporter, "t.nc")
             out = "".join(rewriter.run())
     except SafetyError as exc:
         assert "minimum block time" in exc.message and feed >= 3000.0
@@ -235,8 +239,8 @@ def test_no_block_under_cutter_compensation_turns_back_under_the_nose_radius():
     may be shorter than what its corners take away (the interference check would alarm)."""
     text = "G18 G21 G99 F0.1 S500\nG00 X0. Z6.\nG42 G01 Z5.\nG02 X10. Z0. R5.\nG40 G00 X20.\n"
     with Source.from_text(text, "t.nc") as source:
-        rewriter = Rewriter(interpret_source(source), each(radial(0.002)), Settings(mode="line", tolerance=0.002,
-                            min_block_time_s=0.0, nose_radius=0.8), Reporter(), "t.nc")
+        rewriter = Rewriter(interpret_source(source), each(radial(0.002)), _nose(0.8),
+                            Request(mode="line", tolerance=0.002), Reporter(), "t.nc")
         out = "".join(rewriter.run())
     chords = [m for m in moves(out) if m.line >= 4 and m.kind == "line"][:-1]
     for before, block, after in zip(chords, chords[1:], chords[2:]):
@@ -245,9 +249,15 @@ def test_no_block_under_cutter_compensation_turns_back_under_the_nose_radius():
         assert math.hypot(block.x1 - block.x0, block.z1 - block.z0) >= 0.8 * sum(math.tan(t / 2) for t in turns)
     with pytest.raises(SafetyError) as info:  # a nose so large the chords cannot be long enough
         with Source.from_text(text, "t.nc") as source:
-            "".join(Rewriter(interpret_source(source), each(radial(0.002)), Settings(mode="line", tolerance=0.001,
-                             min_block_time_s=0.0, nose_radius=20.0), Reporter(), "t.nc").run())
+            "".join(Rewriter(interpret_source(source), each(radial(0.002)), _nose(20.0),
+                             Request(mode="line", tolerance=0.001), Reporter(), "t.nc").run())
     assert "interference" in info.value.message
+
+
+def _nose(radius: float):
+    """The default lathe with a tool of this nose radius, and no minimum block time (a profile
+    holds at most 10 mm; a larger nose is set here to make the interference certain)."""
+    return replace(DEFAULT, min_block_time_s=0.0, nose_radius_mm=radius)
 
 
 def _direction(move):
@@ -319,3 +329,15 @@ def test_of_two_errors_the_first_in_the_program_is_the_one_reported():
     with pytest.raises(InterpretationError) as alarm:  # without the first error, the alarm
         rewrite(text, radial(0.003), tolerance=0.001)
     assert alarm.value.location.line == 25
+
+
+@pytest.mark.parametrize("axes, word", [("XYZ", "Y0."), ("XZC", "C30."), ("XZB", "B10.")])
+def test_the_self_check_reads_the_replacement_as_the_profiles_machine(axes, word):
+    """The replacement is read back as the control of the profile reads it, not as the default
+    lathe's: a word for an axis this machine has (and the default lathe has not) stays in the
+    replacement as written, and is no reason to refuse it."""
+    profile = replace(DEFAULT, axes=axes)
+    text = f"G18 G21 G99\nG00 X0. Z6.\nG01 Z5. F0.1\nG02 X10. Z0. R5. {word}\nG01 X20. {word}\nG00 X30.\n"
+    out, rewriter = rewrite(text, radial(0.002), profile=profile)
+    assert rewriter.replaced >= 1 and rewriter.largest == pytest.approx(0.002)
+    assert out.count(word) == 2

@@ -20,7 +20,9 @@ from support import SAMPLES
 from support.interpret import moves
 from postproc.diagnostics import Reporter, SafetyError
 from postproc.interpret.program import interpret_source
-from postproc.compensate.rewrite import Rewriter, Settings, macro_word
+from postproc.compensate.request import Request
+from postproc.compensate.rewrite import Rewriter, macro_word
+from postproc.machine.profile import DEFAULT
 from postproc.syntax.source import Source
 
 CCW, CW = str(SAMPLES / "ballbar/v40r-100-ccw.csv"), str(SAMPLES / "ballbar/v40r-100-cw.csv")
@@ -44,7 +46,8 @@ def _shift(size=0.004):
 def _rewrite(text: str, reporter: Reporter | None = None, **options) -> tuple[str, Rewriter]:
     reporter = reporter or Reporter()
     with Source.from_text(text, "t.nc") as source:
-        rewriter = Rewriter(interpret_source(source, reporter=reporter), _shift(), Settings(**options), reporter, "t.nc")
+        rewriter = Rewriter(interpret_source(source, reporter=reporter), _shift(), DEFAULT, Request(**options), reporter,
+                            "t.nc")
         return "".join(rewriter.run()), rewriter
 
 
@@ -124,7 +127,8 @@ def test_a_corner_that_reads_a_variable_keeps_its_follower_or_refuses():
 
     def run(mode):
         with Source.from_text(text, "t.nc") as source:
-            rewriter = Rewriter(interpret_source(source), follower, Settings(macro_values=mode), Reporter(), "t.nc")
+            rewriter = Rewriter(interpret_source(source), follower, DEFAULT, Request(macro_values=mode), Reporter(),
+                                "t.nc")
             return "".join(rewriter.run()), rewriter
 
     with pytest.raises(SafetyError, match=r",C\[#1\] reads a macro variable: compensating this block \(its corner "
