@@ -103,7 +103,7 @@ class Writer:
     """Turns planned cuts into block text for one program."""
 
     grid: Grid
-    system: str = "A"
+    system: str  #: the control's G-code system (the machine profile's gcode_system)
     absolute: bool = True  #: G90 in systems B and C (X and Z absolute)
 
     @staticmethod

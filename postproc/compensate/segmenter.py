@@ -34,6 +34,7 @@ import numpy as np
 from ..diagnostics import RADIUS_CHECK, RESOLUTION, TOLERANCE, FitError, PlanError
 from ..geometry.fitting import hyper_fit
 from ..geometry import TAU, Arc, Line, Segment
+from ..machine.profile import DEFAULT
 from ..machine.resolution import Grid, rounded
 
 AUTO, ARC_MODE, LINE_MODE = "auto", "arc", "line"
@@ -277,8 +278,8 @@ class Limits:
 
     tolerance: float
     grid: Grid
-    arc_radius_tolerance: float = 0.01
-    max_arc_radius: float = 5000.0
+    arc_radius_tolerance: float = DEFAULT.arc_radius_tolerance  #: the machine profile's
+    max_arc_radius: float = DEFAULT.max_arc_radius
     spacing: float = 0.02  #: sampling of planned paths when measuring them
 
 

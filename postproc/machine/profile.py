@@ -15,6 +15,7 @@ from typing import Any
 
 from . import bounds
 from .bounds import MAX_TOLERANCE
+from .resolution import Grid
 from ..diagnostics import Location, OptionError
 
 INCREMENTS = {  # least input increment per system: (mm, inch)
@@ -58,6 +59,11 @@ class MachineProfile:
     def increment(self, inch: bool) -> float:
         """Least input increment in program units."""
         return INCREMENTS[self.input_increment][1 if inch else 0]
+
+    def grid(self, inch: bool) -> Grid:
+        """The number grid of what this control is written: the decimals of the program's units,
+        X as a diameter or a radius."""
+        return Grid(self.output_decimals_inch if inch else self.output_decimals_mm, inch, self.diameter_x)
 
     def resolution_mm(self, inch: bool) -> float:
         """Output resolution in millimetres."""

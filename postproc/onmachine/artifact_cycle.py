@@ -23,7 +23,6 @@ from .probe_cycle import Cycle, ProbingProgram, Touch, program_text, within_limi
 from .probe_printout import POINT
 from .probe_route import Envelope, Leg
 from ..machine.profile import DEFAULT, MachineProfile
-from ..machine.resolution import Grid
 
 NAME = "ARTIFACT"  #: the program's name in its heading and messages
 
@@ -38,7 +37,7 @@ def plan_round(estimate: tuple[float, float], radius: float, cycle: Cycle,
     """
     cycle.check()
     cx, cz = estimate
-    grid = Grid(profile.output_decimals_mm, False, profile.diameter_x)
+    grid = profile.grid(False)
     grow = radius + cycle.stylus_radius + cycle.clearance
     if cx - grow < 0.0:
         raise SafetyError(f"the -X side touch would start at x {cx - grow:.3f} mm, past the spindle axis: a ball at "

@@ -53,7 +53,6 @@ from .probe_printout import (AFTER, BEFORE, END_STATEMENT, POINT, VAR_COUNT, VAR
 from .probe_route import Envelope, Leg, Router, Surfaces
 from ..machine.profile import DEFAULT, MachineProfile
 from ..interpret.program import interpret_source
-from ..machine.resolution import Grid
 from ..syntax.source import Source
 
 DATUM_SURFACES = ("face", "diameter", "both")
@@ -218,7 +217,7 @@ class _Planner:
         self.nominal = nominal
         self.cycle = cycle
         self.profile = profile
-        self.grid = Grid(profile.output_decimals_mm, False, profile.diameter_x)
+        self.grid = profile.grid(False)
         self.program = nominal.program
         self.moves = moves
 
@@ -335,7 +334,7 @@ class _Text:
     """Blocks in the control's units and style: X a diameter in diameter mode, decimal points always."""
 
     def __init__(self, profile: MachineProfile):
-        self.grid = Grid(profile.output_decimals_mm, False, profile.diameter_x)
+        self.grid = profile.grid(False)
         self.style = Style()
         self.lines: list[str] = []
         self.at: tuple[float, float] | None = None
@@ -433,7 +432,7 @@ def self_check(planned: ProbingProgram, profile: MachineProfile = DEFAULT) -> No
                 skips.append((move.x0, move.z0, step.block))
     if len(skips) != len(planned.touches):
         raise InternalError(f"the probing program has {len(skips)} skip moves for {len(planned.touches)} touches")
-    grid = Grid(profile.output_decimals_mm, False, profile.diameter_x)
+    grid = profile.grid(False)
     for (x0, z0, block), touch in zip(skips, planned.touches):
         values = dict(block.codes)
         end = (grid.x_of(float(values["X"])), grid.z_of(float(values["Z"])))

@@ -27,3 +27,13 @@ def test_a_snapped_point_is_on_the_grid_of_its_words():
     grid = Grid(3, False, True)
     x, z = grid.snap(12.34567, -0.00049)
     assert (grid.x_word(x), grid.z_word(z)) == (24.691, 0.0) and math.copysign(1.0, z) == 1.0
+
+
+def test_a_profiles_grid_is_its_decimals_in_the_programs_units_and_its_x_as_it_is_programmed():
+    from dataclasses import replace
+
+    from postproc.machine.profile import DEFAULT
+
+    radius = replace(DEFAULT, diameter_x=False, output_decimals_mm=4, output_decimals_inch=5)
+    assert radius.grid(False) == Grid(4, False, False) and radius.grid(True) == Grid(5, True, False)
+    assert DEFAULT.grid(False).x_step == 0.0005 and DEFAULT.grid(True).z_step == 0.0001 * 25.4
