@@ -211,20 +211,6 @@ def test_a_moved_datum_is_refused_for_safety(run, tmp_path):
         "datum_after_z_mm = 13.5 differ by 0.5064 mm, more than repeatability_mm = 0.003")
 
 
-def test_a_block_whose_geometry_reads_a_variable_is_refused_for_safety_unless_a_choice_is_made(run, tmp_path):
-    program = tmp_path / "p.nc"
-    program.write_text("G18 G21 G99\n#504=250\nG00 X300. Z2.\nG01 Z0. F.2\nG01 X[#504+6.]\nG00 X300. Z5.\n")
-    target = tmp_path / "out.nc"
-    result = run("compensate", str(program), "--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW,
-                 "--option", "extrapolate=true", "-o", str(target))
-    assert result.exit_code == 4 and result.stdout_bytes == b"" and not target.exists()
-    assert result.stderr.splitlines()[0] == (
-        f"{program}:5:5: error: X[#504+6.] reads a macro variable: compensating this block writes its value as a "
-        "number, and the block would no longer follow the variable; give --macro-values keep to leave such blocks "
-        "uncompensated, or --macro-values numbers to write them as numbers (the compensated program then holds only "
-        "for the values the program gives its variables)")
-
-
 def test_bad_calibrations(run, tmp_path):
     text = open(CALIBRATION).read()
     off = _probe(tmp_path, text.replace("artifact_radius_mm = 25.4", "artifact_radius_mm = 20"))

@@ -310,21 +310,6 @@ def test_a_damaged_model_is_bad_input(plugin, run, tmp_path):
         compensator.load(data["model"])
 
 
-@pytest.mark.parametrize("plugin", PLUGINS)
-def test_a_bad_option_value_is_exit_code_3(plugin, run):
-    result = run("compensate", HEMISHELL, "--plugin", plugin, "--ballbar", CCW, "--ballbar", CW,
-                 "--option", f"{plugin}.extrapolate=maybe")
-    assert result.exit_code == 3 and result.stdout == ""
-    assert f"--option {plugin}.extrapolate=maybe: expected true or false" in result.stderr
-
-
-@pytest.mark.parametrize("plugin", PLUGINS)
-def test_one_trace_is_not_enough(plugin, run):
-    result = run("compensate", HEMISHELL, "--plugin", plugin, "--ballbar", CCW)
-    assert result.exit_code == 3 and result.stdout == ""
-    assert "a CCW and a CW trace of one test are needed, 1 given" in result.stderr
-
-
 def test_postproc_plugins_lists_both(run):
     result = run("plugins")
     assert result.exit_code == 0

@@ -46,33 +46,6 @@ def test_compensators_run_in_the_order_given(run):
     assert plugins == ["(PLUGIN ITERATIVE 0.1.0)", "(PLUGIN BALLBAR-INVERSE 0.1.0)"]
 
 
-def test_option_scoping(run):
-    base = ["compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", CCW, "--ballbar", CW]
-    assert run(*base, "--option", "ballbar-inverse.radius-mapping=relative").exit_code == 0
-    unknown = run(*base, "--option", "radius-mapping=relative", "--option", "stock=1")
-    assert unknown.exit_code == 3 and "no selected compensator declares 'stock'" in unknown.stderr
-    other = run(*base, "--option", "iterative.selective=0.001")
-    assert other.exit_code == 3 and "'iterative' is not a selected compensator" in other.stderr
-    bad = run(*base, "--option", "radius-mapping=sideways")
-    assert bad.exit_code == 3 and "expected one of absolute, relative, center-offset" in bad.stderr
-    for result in (unknown, other, bad):
-        assert result.stdout == ""
-
-
-def test_measurements_go_only_where_they_are_taken(run, tmp_path):
-    probe = tmp_path / "p.csv"
-    probe.write_text("# postproc probe 1\n# stylus_radius_mm = 3\nx_mm,z_mm,approach_x,approach_z\n1,60,0,-1\n")
-    result = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", CCW, "--probe", str(probe))
-    assert result.exit_code == 2 and "no selected compensator (ballbar-inverse) takes probe" in result.stderr
-    missing = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse")
-    assert missing.exit_code == 2 and "needs --ballbar" in missing.stderr
-
-
-def test_unknown_plugin(run):
-    result = run("compensate", HEMISHELL, "--plugin", "telepathy")
-    assert result.exit_code == 3 and "no compensator of that name is installed" in result.stderr
-
-
 class _Raises(Compensator):
     """Raises while correcting."""
 
