@@ -57,7 +57,8 @@ class Pipeline:
         self.profile = profile
         self.reporter = reporter or Reporter()
         self.max_correction = bounds.in_force(request.tolerance, request.max_correction, profile)
-        context = Context(profile, self.reporter, request.tolerance or profile.default_tolerance(False), request.force)
+        context = Context(profile=profile, reporter=self.reporter, force=request.force,
+                          tolerance=request.tolerance or profile.default_tolerance(False))
         self.inputs: list[tuple[str, str]] = []  # (file, sha256) for the provenance
         self.measured: list = []  # when each measurement was taken (path, time or None), for a saved model
         with inputs.session():  # each file read once, whoever needs it
