@@ -28,13 +28,16 @@ import os
 import re
 import sys
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import pluggy
 
 from . import hookspecs
 from .compensator import Compensator
 from ..diagnostics import InternalError, OptionError, PluginError
-from ..measure.readers.registry import MeasurementReader
+
+if TYPE_CHECKING:
+    from ..measure.readers.registry import MeasurementReader
 
 GROUP = "postproc"
 OWN = "postproc"  #: the distribution whose entry points load only when selected
@@ -265,6 +268,8 @@ def readers() -> list[MeasurementReader]:
     built-in readers are (docs/hooks.md). Each implementation is called here, not through the
     hook, so that a reader that is not one is refused naming its plugin; pluggy calls the
     implementations in the reverse of ``get_hookimpls()``, the order kept here."""
+    from ..measure.readers.registry import MeasurementReader  # not for a run that reads no measurement
+
     found: list[MeasurementReader] = []
     for impl in reversed(manager().hook.postproc_measurement_readers.get_hookimpls()):
         for reader in impl.function() or ():
