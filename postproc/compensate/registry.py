@@ -242,17 +242,16 @@ def _name_and_version(info: str) -> tuple[str | None, str | None]:
 
 
 def _load_own(own: _Own, name: str) -> None:
-    """Load one of this distribution's entry points as pluggy loads one, without reading any
-    other distribution's metadata."""
+    """Load one of this distribution's entry points as pluggy loads one (through
+    ``EntryPoint.load``, whose steps and failures these are), without reading any other
+    distribution's metadata."""
+    import importlib
+
     pm = _bare()
     if pm.has_plugin(name) or pm.is_blocked(name):
         return
     try:
         match = re.match(_VALUE, own.points[name])
-        if match is None:
-            raise ValueError(f"{own.points[name]!r} is not an entry point's module:attribute")
-        import importlib
-
         plugin = functools.reduce(getattr, filter(None, (match.group("attr") or "").split(".")),
                                   importlib.import_module(match.group("module")))
         pm.register(plugin, name=name)
