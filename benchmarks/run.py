@@ -165,6 +165,8 @@ def _suite(work: Path, runs: int, quick: bool) -> int:
         count = moves if not name.startswith("4 programs") else part_moves
         compensation[name] = (ratio(floor_rounds, measured), peak)
         note = "" if name.startswith("regex") else f"  {count / seconds:8,.0f} feed moves/s"
+        if name.startswith("4 programs") and name != "4 programs, --jobs 1":  # the same rounds as --jobs 1
+            note += f", {ratio(measured_rounds['4 programs, --jobs 1'], measured):.2f}x the speed of --jobs 1"
         print(row(name, seconds, peak, moves_blocks, compensation[name][0], code, note))
 
     print("\nImport time (python -X importtime, cumulative)")
