@@ -165,10 +165,13 @@ def _suite(work: Path, runs: int, quick: bool) -> int:
         count = moves if not name.startswith("4 programs") else part_moves
         compensation[name] = (ratio(floor_rounds, measured), peak)
         note = "" if name.startswith("regex") else f"  {count / seconds:8,.0f} feed moves/s"
+        if name.startswith("4 programs") and name != "4 programs, --jobs 1":  # the same rounds as --jobs 1
+            note += f", {ratio(measured_rounds['4 programs, --jobs 1'], measured):.2f}x the speed of --jobs 1"
         print(row(name, seconds, peak, moves_blocks, compensation[name][0], code, note))
 
-    print("\nImport time of the command line (python -X importtime, cumulative)")
+    print("\nImport time (python -X importtime, cumulative)")
     _imports()
+    _imports(["compensate", str(small), "--model", str(model), "-o", str(out)])
 
     check = results["postproc check"][3]
     identity = results["postproc compensate (identity)"][3]
@@ -222,19 +225,34 @@ def _model(work: Path) -> Path:
     return model
 
 
-def _imports() -> None:
-    result = subprocess.run([PYTHON, "-X", "importtime", "-c", "import postproc.cli.main"], capture_output=True, text=True)
+def _imports(command: list[str] | None = None) -> None:
+    """The heaviest imports of the command line at its start, or of a whole run of ``command``:
+    what a small job pays for besides its work."""
+    launch = ["-m", "postproc.cli.main", *command] if command else ["-c", "import postproc.cli.main"]
+    result = subprocess.run([PYTHON, "-X", "importtime", *launch], capture_output=True, text=True)
     rows = []
     for line in result.stderr.splitlines():
         parts = line.split("|")
         if len(parts) == 3 and parts[1].strip().isdigit():
             rows.append((int(parts[1]), parts[2].rstrip()))
-    total = max(rows)[0] if rows else 0
-    print(f"  postproc.cli.main: {total / 1e6:.3f} s in all; the heaviest modules:")
-    for micros, name in sorted(rows, reverse=True)[1:6]:
+    names = {name.strip() for _, name in rows}
+    if command:
+        outermost = [(micros, name) for micros, name in rows if not name.startswith("  ")]  # each with its own
+        args = " ".join("..." if "/" in arg else arg for arg in command)
+        print(f"  postproc {args}: {sum(micros for micros, _ in outermost) / 1e6:.3f} s of imports in all (Python's "
+              "own start's among them); the heaviest, each with what it imports:")
+        heaviest = sorted(outermost, reverse=True)[:6]
+        unused = [name for name in ("scipy", "matplotlib", "lark", "importlib.metadata") if name in names]
+        verdict = f"  scipy, matplotlib, lark or importlib.metadata imported by the run: {', '.join(unused) or 'none'}"
+    else:
+        total = max(rows)[0] if rows else 0
+        print(f"  postproc.cli.main: {total / 1e6:.3f} s in all; the heaviest modules:")
+        heaviest = sorted(rows, reverse=True)[1:6]
+        heavy = [name for name in ("numpy", "scipy", "matplotlib", "lark") if name in names]
+        verdict = f"  numpy, scipy, matplotlib or lark loaded at start: {', '.join(heavy) or 'none'}"
+    for micros, name in heaviest:
         print(f"    {micros / 1e6:.3f} s {name.strip()}")
-    heavy = [name.strip() for _, name in rows if name.strip() in ("numpy", "scipy", "matplotlib", "lark")]
-    print(f"  numpy, scipy, matplotlib or lark loaded at start: {', '.join(heavy) or 'none'}")
+    print(verdict)
 
 
 if __name__ == "__main__":

@@ -35,7 +35,6 @@ from .compensator import Compensator, Context, Measurements, check_options, pars
 from ..diagnostics import (InternalError, Location, ModelError, PluginError, PostprocError, Reporter, SafetyError,
                            UsageError)
 from ..measure.readers.csvfile import snapshot as measurement_snapshot
-from ..measure.readers.registry import ReadContext, read as read_measurement
 from ..interpret.motion import ARC, LINE, Step
 from ..files.output import Spool
 from ..machine.profile import DEFAULT, MachineProfile
@@ -111,6 +110,8 @@ class Pipeline:
             if files and not any(kind in c.takes for c in self.compensators):
                 names = ", ".join(c.name for c in self.compensators)
                 raise UsageError(f"--{kind} was given but no selected compensator ({names}) takes {kind} measurements")
+        from ..measure.readers.registry import ReadContext, read as read_measurement  # not for a saved model's run
+
         readers = registry.readers()
         context = ReadContext(self.reporter)
         read = {kind: [read_measurement(path, kind, readers, context) for path in files] for kind, files in given.items()}

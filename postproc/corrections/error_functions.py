@@ -11,7 +11,7 @@ analysis only, never the engine, so a shop's plugin may subclass it.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
@@ -19,8 +19,9 @@ from ..measure import ballbar_fit
 from ..measure.ballbar_analysis import screen, tests
 from ..compensate.compensator import Compensator, Measurements, Option, Piece
 from ..diagnostics import Location, MeasurementError
-from ..measure.figures import figures
-from ..measure.readers.ballbar import BallbarTrace
+
+if TYPE_CHECKING:  # a saved model's run reads no trace
+    from ..measure.readers.ballbar import BallbarTrace
 
 __all__ = ["ErrorFunctions"]
 
@@ -121,6 +122,8 @@ class ErrorFunctions(Compensator):
     def _score(self, traces: Sequence[BallbarTrace]) -> None:
         """Figures of the traces as measured minus the model's prediction, each test about its own
         least-squares centre (the set-up, which the model leaves out)."""
+        from ..measure.figures import figures  # only where traces are fitted, not for a saved model
+
         samples = ballbar_fit.Samples.of(list(traces))
         residual = np.concatenate([ballbar_fit.as_measured(t) - self.predicted(t) for t in traces])
         residual = ballbar_fit.without_centres(samples, residual)

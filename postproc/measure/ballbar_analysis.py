@@ -58,14 +58,17 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import ballbar_fit
 from .ballbar_fit import MAX_GAP_DEG, Estimate, arcs_text
 from ..diagnostics import Location, MeasurementError, ModelError
-from .figures import Figures, figures
-from .readers.ballbar import BallbarTrace
+
+if TYPE_CHECKING:  # imported where used: a saved model's check (check_saved) needs neither
+    from .figures import Figures
+    from .readers.ballbar import BallbarTrace
 
 __all__ = ["MAX_GAP_DEG", "Estimate", "CircularTest", "Diagnosis", "DirectionFigures", "circular_deviation",
            "circular_test", "diagnose", "jointly_centred", "plausibility", "predict", "screen", "tests"]
@@ -154,6 +157,8 @@ def tests(traces: Sequence[BallbarTrace]) -> list[tuple[BallbarTrace, ...]]:
 
 def circular_test(traces: Sequence[BallbarTrace]) -> CircularTest:
     """G and F of each trace of one test; G(b) and H of its first ccw and first cw trace."""
+    from .figures import figures
+
     ordered = tests(traces)
     if len(ordered) != 1:
         raise MeasurementError("the traces are of different tests (another radius or centre)", Location(traces[-1].path))
@@ -190,6 +195,8 @@ def diagnose(traces: Sequence[BallbarTrace], limit: float = ballbar_fit.EFFECT_L
     Refuses (MeasurementError naming the arcs and the parameter) when a parameter cannot be
     separated or its 3-sigma effect exceeds ``limit`` mm.
     """
+    from .figures import figures
+
     grouped = tests(traces)
     ordered = [trace for test in grouped for trace in test]
     samples = ballbar_fit.Samples.of(ordered)
@@ -323,6 +330,8 @@ def predict(diagnosis: Diagnosis, theta_deg, direction: str, radius: float | Non
     A one-direction diagnosis cannot predict the other direction (its squareness and servo
     mismatch are not separated): that is a ValueError.
     """
+    from .readers.ballbar import BallbarTrace
+
     values = diagnosis.parameters()
     if "apparent_squareness" in values and direction not in diagnosis.directions:
         raise ValueError(f"a diagnosis of the {diagnosis.directions[0]} trace alone cannot predict {direction}")

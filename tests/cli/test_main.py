@@ -232,3 +232,63 @@ def test_a_program_with_no_blocks_is_given_back_with_a_warning_from_a_file_and_f
 def test_a_program_that_commands_anything_is_not_empty(run, data):
     result = run("check", input=data)
     assert result.exit_code == 0 and "no blocks" not in result.stderr
+
+
+# ---------------------------------------------------------------------- what a small job loads
+
+#: A run in a fresh interpreter (nothing imported yet) that prints, after the command, its exit
+#: code and every module it imported.
+STARTED = """
+import json, sys
+from postproc.cli.main import main
+try:
+    main(sys.argv[1:])
+except SystemExit as stop:
+    code = stop.code
+print(json.dumps({"code": code, "modules": sorted(sys.modules)}))
+"""
+
+#: What a compensation with a saved model never needs: the fitting and plotting libraries, the
+#: grammar (the fast path reads ordinary blocks), the installed metadata's reader (this
+#: distribution's entry points are found without it), measurement reading, the virtual lathe,
+#: the report.
+NOT_FOR_A_MODEL_RUN = ("scipy", "matplotlib", "lark", "threadpoolctl", "importlib.metadata", "email", "zipfile",
+                       "postproc.syntax.grammar", "postproc.measure.readers.registry", "postproc.measure.figures",
+                       "postproc.measure.readers.ballbar", "postproc.simulator", "postproc.report")
+
+
+def _started(*args: str):
+    import json
+    import subprocess
+    import sys
+
+    from support import REPO
+
+    done = subprocess.run([sys.executable, "-c", STARTED, *args], capture_output=True, text=True, cwd=REPO)
+    return json.loads(done.stdout), done.stderr
+
+
+def test_a_compensation_with_a_saved_model_imports_only_what_it_uses(run, tmp_path):
+    """Each of these costs a small job's start (README, "Speed and fuzzing"); a lazy import made eager
+    again would go unnoticed by every other test."""
+    from support import SAMPLES
+
+    model = _mixed_model(run, tmp_path)
+    output = tmp_path / "out.nc"
+    loaded, stderr = _started("compensate", str(SAMPLES / "programs/hemishell.nc"), "--model", model, "-o", str(output))
+    assert loaded["code"] == 0, stderr
+    assert output.exists()
+    modules = loaded["modules"]
+    assert [name for name in modules if name.split(".")[0] in NOT_FOR_A_MODEL_RUN
+            or any(name == lazy or name.startswith(lazy + ".") for lazy in NOT_FOR_A_MODEL_RUN)] == []
+    assert [name for name in modules if name.startswith("postproc_plugins.")] == ["postproc_plugins.parametric"]
+
+
+def test_check_and_an_identity_run_import_no_numpy(tmp_path):
+    from support import SAMPLES
+
+    program = str(SAMPLES / "programs/hemishell.nc")
+    for args in (("check", program), ("compensate", program, "-o", str(tmp_path / "out.nc"))):
+        loaded, stderr = _started(*args)
+        assert loaded["code"] == 0, stderr
+        assert [name for name in loaded["modules"] if name.split(".")[0] in ("numpy", "pluggy", "lark")] == [], args

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from support import REPO, SAMPLES
 from postproc.compensate import hookspecs
@@ -355,3 +357,75 @@ def test_a_compensator_name_taken_twice_is_caught_though_only_one_is_selected(tm
                     "parametric", "--ballbar", CCW, "--ballbar", CW)
     assert result.returncode == 5 and result.stdout == ""
     assert f"two plugins provide a compensator named {provides!r}" in result.stderr
+
+
+# ---------------------------------------------------------------------- finding the entry points without importlib.metadata
+
+_SELECTED = ("import sys; from postproc.compensate import registry as plugins; "
+             "[item] = plugins.select(['parametric']); print(item.version, item.distribution); "
+             "print('importlib.metadata' in sys.modules)")
+
+
+def test_the_built_in_entry_points_are_found_without_reading_every_distribution():
+    """The version and distribution a saved model is checked against are those importlib.metadata
+    gives; the module that reads every installed distribution is not imported to find them."""
+    from importlib.metadata import version
+
+    result = _fresh(_SELECTED)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines() == [f"{version('postproc')} postproc", "False"]
+
+
+def test_another_distribution_without_postproc_entry_points_changes_nothing(tmp_path):
+    info = tmp_path / "other_tool-2.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: other-tool\nVersion: 2.0\n")
+    (info / "entry_points.txt").write_text("[console_scripts]\nother = other_tool:main\n")
+    result = _fresh(_SELECTED, tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines()[1] == "False"
+
+
+@pytest.mark.parametrize("entry_points", ["[postproc]\nshop = shop_plugin\n", "[console_scripts]\nbroken line\n"])
+def test_another_distributions_postproc_entry_point_or_a_broken_file_is_read_by_importlib_metadata(tmp_path,
+                                                                                                   entry_points):
+    """What the direct way cannot vouch for goes the way it always went: a third-party plugin is
+    loaded (its compensator's name checked against the built-in ones), a broken entry_points.txt
+    fails as importlib.metadata fails on it."""
+    info = tmp_path / "shop_plugin-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: shop-plugin\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text(entry_points)
+    (tmp_path / "shop_plugin.py").write_text("")
+    result = _fresh(_SELECTED, tmp_path)
+    if "broken" in entry_points:
+        assert result.returncode == 1 and "TypeError" in result.stderr
+    else:
+        assert result.returncode == 0, result.stderr
+        assert result.stdout.splitlines()[1] == "True"
+
+
+_LINES = st.sampled_from(["[postproc]", "[ postproc ]", "[[postproc]]", "[console_scripts]", "[postproc.x]",
+                          "# [postproc]", "; note", "", "   ", "a = m:f", "a=m", " b =  m.n:f.g [x] ", "c = ",
+                          "= m", "d = a = b", "no equals sign", "parametric = postproc_plugins.parametric"])
+
+
+@given(st.lists(_LINES, max_size=12))
+def test_entry_points_are_read_as_importlib_metadata_reads_them(tmp_path_factory, lines):
+    """Any entry_points.txt: the same entry points of the group (the first of each name, the
+    one that loads), or None where importlib.metadata refuses the file."""
+    from importlib.metadata import PathDistribution
+
+    info = tmp_path_factory.mktemp("site") / "any-1.0.dist-info"
+    info.mkdir()
+    text = "\n".join(lines) + "\n"
+    (info / "entry_points.txt").write_text(text)
+    try:
+        points = PathDistribution(info).entry_points.select(group="postproc")
+    except (TypeError, ValueError):
+        assert registry._group(text) is None
+        return
+    expected: dict[str, str] = {}
+    for point in points:
+        expected.setdefault(point.name, point.value)
+    assert registry._group(text) == expected
