@@ -292,8 +292,10 @@ class Rewriter:
                     self._pending.append(entry)
                     if entry.step.contour_end or not entry.step.in_contour:
                         yield from self._release()
-                    continue
-                yield from self._take(entry)
+                elif entry.refusal is None and not entry.motion:
+                    self._window.append(entry)
+                else:
+                    yield from self._take(entry)
         if self._pending is not None:
             yield from self._release()
         if self._previous is not None:
@@ -733,8 +735,16 @@ class Rewriter:
         try:
             result = plan(target, limits, self.settings.mode)
             if corrected is not None and not self._holds(result.cuts, corrected, limits):
-                limits = self._limits_for(step, monotone.off_path(target.points, corrected.points))
-                result = plan(target, limits, self.settings.mode)
+                held = monotone.off_path(target.points, corrected.points)
+                limits = self._limits_for(step, held)
+                try:
+                    result = plan(target, limits, self.settings.mode)
+                except PlanError as exc:
+                    exc.args = (f"held to run one way as its cycle needs, the block runs {monotone.microns(held)} off "
+                                f"its corrected path, which leaves {monotone.microns(limits.tolerance)} of the "
+                                f"tolerance: {exc}",)
+                    exc.needed = None if exc.needed is None else exc.needed + held
+                    raise
         except PlanError as exc:
             raise self._unplannable(step, exc.limit, str(exc), exc.needed) from None
         if len(result.cuts) > 1:  # one block has no neighbour to merge with
@@ -849,12 +859,13 @@ class Rewriter:
     def _settle_one_way(self, entries: list[Entry]) -> _OneWay:
         """The rule of a G71/G72 contour read whole, its targets held to it (:mod:`.monotone`).
 
-        Each axis the cycle needs run one way is walked from where the approach ends (or, in
-        an axis the approach may be moved in, from the first corrected point): a target's
-        points never run back past the furthest value reached before them, nor beyond a later
-        block that is written as it was. A target held off its corrected path by more than
-        the tolerance refuses the run; one held within it is planned to keep within the
-        tolerance of both, with a warning naming its block."""
+        Each axis the cycle needs run one way is held over the whole contour, from where the
+        approach ends (or, in an axis the approach may be moved in, from the first corrected
+        point): where the corrected points run back, each is met halfway between the furthest
+        value before it and the nearest after it, within the blocks written as they were. A
+        target held off its corrected path by more than the tolerance refuses the run; one
+        held within it is planned to keep within the tolerance of both, with a warning naming
+        its block when the hold takes more than half the tolerance."""
         approach = entries[0]
         step = approach.step
         axes, carries, cycle = monotone.rule(step.cycle, {letter for letter, _ in step.block.codes})
@@ -912,35 +923,41 @@ class Rewriter:
     def _hold_targets(shape: list[tuple[Entry, int, Move]], axis: int, way: int, low: float | None,
                       points: dict[tuple[int, int], np.ndarray]) -> None:
         """Hold the targets of a contour's moves to run one way (``way``) in the axis, from ``low``
-        (None: from the first corrected point on); the blocks written as they were are bounds."""
-        parts: list[tuple[tuple[int, int] | None, list[float]]] = []  # (target key, or None and a fixed block's values)
+        (None: from the first corrected point on), all in one pass (:func:`monotone.held` over
+        the whole contour); the blocks written as they were are bounds it keeps to. The targets
+        it changes are put in ``points``, keyed by (id of the edit, target index)."""
+        keys: list[tuple[int, int] | None] = []  # each part's target, or None for a block written as it was
+        parts: list[np.ndarray] = []
+        targets: dict[tuple[int, int], Target] = {}
         for entry, index, move in shape:
             edit = entry.edits[index]
             if edit is not None:
                 for number, target in enumerate(edit.targets):
                     key = (id(edit), number)
-                    points.setdefault(key, target.points.copy())
-                    parts.append((key, []))
+                    targets[key] = target
+                    keys.append(key)
+                    parts.append(points[key][:, axis] if key in points else target.points[:, axis])
             elif move.known and move.kind in (LINE, ARC, RAPID):
                 values = monotone.along(_cut_of(move), axis)
                 follows = len(entry.step.moves) == 1 and move.kind in (LINE, RAPID)  # may start where the last one ends
-                parts.append((None, values[1:] if follows else values))
-        caps: list[float | None] = []
-        cap = None
-        for key, values in reversed(parts):
-            caps.append(cap)
-            if key is None and values:
-                lowest = min(value * way for value in values) * way
-                cap = lowest if cap is None else (min(cap * way, lowest * way) * way)
-        caps.reverse()
-        for (key, values), cap in zip(parts, caps):
+                keys.append(None)
+                parts.append(np.array(values[1:] if follows else values))
+        if low is not None:
+            keys.insert(0, None)
+            parts.insert(0, np.array([low]))
+        if not parts:
+            return
+        values = np.concatenate(parts)
+        fixed = np.repeat([key is None for key in keys], [len(part) for part in parts])
+        held = monotone.held(values, way, None, None, fixed)
+        starts = np.cumsum([0] + [len(part) for part in parts[:-1]])
+        for part in sorted(set(np.searchsorted(starts, np.flatnonzero(held != values), "right") - 1)):
+            key = keys[part]
             if key is None:
-                furthest = max(value * way for value in values) * way if values else low
-                low = furthest if low is None else max(low * way, furthest * way) * way
-                continue
-            held = points[key]
-            held[:, axis] = monotone.held(held[:, axis], way, low, cap)
-            low = float(held[-1, axis])
+                continue  # a block written as it was keeps its values (the check at the contour's end sees it)
+            if key not in points:
+                points[key] = targets[key].points.copy()
+            points[key][:, axis] = held[starts[part] : starts[part] + len(parts[part])]
 
     def _hold_plans(self, entry: Entry) -> None:
         """Blocks planned for a held target may still run back a little (a chord's vertex standing
@@ -953,8 +970,9 @@ class Rewriter:
             if edit is None or not ways:
                 continue
             for index, (target, planned) in enumerate(zip(edit.targets, edit.plans)):
-                if not _turns_back(planned.cuts, ways, noise):
-                    continue
+                cuts = planned.cuts
+                if (len(cuts) == 1 and not cuts[0].is_arc) or not _turns_back(cuts, ways, noise):
+                    continue  # one line runs one way
                 limits = self._limits_for(entry.step)
                 try:
                     chords = plan(target, limits, LINE_MODE)

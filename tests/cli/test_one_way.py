@@ -65,7 +65,7 @@ def test_a_taper_the_cycle_cannot_cut_is_refused(run, sample_model, tmp_path):
     assert result.stdout == ""
     errors = [line for line in result.stderr.splitlines() if ": error: " in line]
     assert len(errors) == 1 and errors[0].startswith(f"{program}:8:1: error: the G71 type I cycle on line 4")
-    assert "one way in X and Z (FANUC alarm PS0064/PS0329)" in errors[0] and "18.00 um off" in errors[0]
+    assert "one way in X and Z (FANUC alarm PS0064/PS0329)" in errors[0] and "9.00 um off" in errors[0]  # held level halfway
     assert "Z-60." in result.stderr  # the block, as written
 
 

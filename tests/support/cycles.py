@@ -52,10 +52,9 @@ def _values(move, axis: int) -> list[float]:
     return [value for _, value in sorted(found)] + [end]
 
 
-def turn_backs(text: str, **profile) -> list[str]:
-    """Where a G71/G72 contour of the program runs back in an axis its type needs one way, as
-    'line N: X' entries; empty when every such contour runs one way."""
-    program = steps(text, **profile)
+def _cycles(program) -> list[tuple[str, str, list]]:
+    """Each G71/G72 cycle of the interpreted program: '1' or '2', its type as the contour's first
+    block tells ('I' or 'II'), and the contour's steps from that block to its Q block."""
     found = []
     for index, step in enumerate(program):
         words = _words(step.block.text)
@@ -71,18 +70,31 @@ def turn_backs(text: str, **profile) -> list[str]:
             if later.block.label == q:
                 break
         approach = set(_words(contour[0].block.text))
-        if match.group(1) == "1":
-            axes = (1,) if approach & {"Z", "W"} else (0, 1)
-        else:
-            axes = (0,) if approach & {"X", "U"} else (0, 1)
+        across = {"Z", "W"} if match.group(1) == "1" else {"X", "U"}
+        found.append((match.group(1), "II" if approach & across else "I", contour))
+    return found
+
+
+def cycle_types(text: str, **profile) -> list[str]:
+    """The G71/G72 cycles of a program with their types, as the control reads them from the
+    first block of each contour: ['G71 type I', ...]."""
+    return [f"G7{cycle} type {kind}" for cycle, kind, _ in _cycles(steps(text, **profile))]
+
+
+def turn_backs(text: str, **profile) -> list[str]:
+    """Where a G71/G72 contour of the program runs back in an axis its type needs one way, as
+    'line N: X' entries; empty when every such contour runs one way."""
+    found = []
+    noise = NOISE[profile.get("diameter_x", True)]
+    for cycle, kind, contour in _cycles(steps(text, **profile)):
+        cutting = 1 if cycle == "1" else 0  # G71 cuts along Z, G72 along X: that axis always runs one way
+        axes = (0, 1) if kind == "I" else (cutting,)
         start = [m for m in contour[0].moves if m.kind in ("line", "rapid", "arc")][-1]
         shape = [(s.block.line, m) for s in contour[1:] for m in s.moves if m.kind in ("line", "rapid", "arc")]
         for axis in axes:
-            values = [((start.x1, start.z1)[axis], contour[0].block.line)]
-            values += [(value, line) for line, move in shape for value in _values(move, axis)]
-            noise = NOISE[profile.get("diameter_x", True)]
-            way, reached = 0, values[0][0]  # which way the axis runs (0: not yet), and how far it has gone
-            for value, line in values[1:]:
+            values = [(value, line) for line, move in shape for value in _values(move, axis)]
+            way, reached = 0, (start.x1, start.z1)[axis]  # which way the axis runs (0: not yet), how far it has gone
+            for value, line in values:
                 if way == 0:
                     if abs(value - reached) > noise:
                         way, reached = (1 if value > reached else -1), value
