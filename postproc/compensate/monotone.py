@@ -90,27 +90,21 @@ def first_turn(start: float, cuts: list[Cut], axis: int, way: int,
     return None
 
 
-def held(values: np.ndarray, way: int, low: float | None = None, high: float | None = None,
-         fixed: np.ndarray | None = None) -> np.ndarray:
-    """The values held to run one way (``way`` +1 or -1), as near them as can be: never back
-    past ``low`` (the bound the path has reached) nor beyond ``high`` (what it must still reach;
-    None for no bound), and the values ``fixed`` marks (blocks written as they were) kept as
-    bounds for the others. Where the values run back, each is met halfway between the furthest
-    value before it and the nearest after it: the least largest change (the L-infinity
-    isotonic fit, half what stopping at the furthest value reached would take). Values that
-    run one way already come back exactly as they were."""
+def held(values: np.ndarray, way: int, fixed: np.ndarray) -> np.ndarray:
+    """The values held to run one way (``way`` +1 or -1), as near them as can be, the values
+    ``fixed`` marks (blocks written as they were, where the approach ends) kept as they are
+    and as bounds for the others. Where the values run back, each is met halfway between the
+    furthest value before it and the nearest after it: the least largest change (the
+    L-infinity isotonic fit, half what stopping at the furthest value reached would take).
+    Values that run one way already come back exactly as they were."""
     signed = values * way
     before = np.maximum.accumulate(signed)
     after = np.minimum.accumulate(signed[::-1])[::-1]
     result = (before + after) / 2.0
-    if fixed is not None and fixed.any():
+    if fixed.any():
         floor = np.maximum.accumulate(np.where(fixed, signed, -np.inf))
         ceiling = np.minimum.accumulate(np.where(fixed, signed, np.inf)[::-1])[::-1]
         result = np.where(fixed, signed, np.minimum(np.maximum(result, floor), ceiling))
-    if low is not None:
-        result = np.maximum(result, low * way)
-    if high is not None:
-        result = np.minimum(result, high * way)
     return result * way
 
 

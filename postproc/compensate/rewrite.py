@@ -949,7 +949,7 @@ class Rewriter:
             return
         values = np.concatenate(parts)
         fixed = np.repeat([key is None for key in keys], [len(part) for part in parts])
-        held = monotone.held(values, way, None, None, fixed)
+        held = monotone.held(values, way, fixed)
         starts = np.cumsum([0] + [len(part) for part in parts[:-1]])
         for part in sorted(set(np.searchsorted(starts, np.flatnonzero(held != values), "right") - 1)):
             key = keys[part]

@@ -56,12 +56,15 @@ def test_an_arc_runs_back_where_it_passes_an_apex():
     assert monotone.first_turn(0.0, [half], 0, 1) == (0, 10.0, 0.0)
 
 
-def test_held_values_never_run_back_nor_beyond_what_follows():
+def test_held_values_are_met_halfway_and_keep_to_the_fixed_ones():
     values = np.array([1.0, 0.5, 2.0, 1.5, 3.0])
-    assert monotone.held(values, 1, None, None).tolist() == [0.75, 0.75, 1.75, 1.75, 3.0]  # halfway: 0.25 off at most
-    assert monotone.held(values, 1, 1.2, 2.5).tolist() == [1.2, 1.2, 1.75, 1.75, 2.5]
-    assert monotone.held(-values, -1, None, None).tolist() == [-0.75, -0.75, -1.75, -1.75, -3.0]
-    assert monotone.held(np.array([0.0, 1.0, 2.0]), 1, None, None).tolist() == [0.0, 1.0, 2.0]  # one way: kept
+    free = np.zeros(5, dtype=bool)
+    assert monotone.held(values, 1, free).tolist() == [0.75, 0.75, 1.75, 1.75, 3.0]  # 0.25 off at most
+    assert monotone.held(-values, -1, free).tolist() == [-0.75, -0.75, -1.75, -1.75, -3.0]
+    assert monotone.held(np.array([0.0, 1.0, 2.0]), 1, np.zeros(3, dtype=bool)).tolist() == [0.0, 1.0, 2.0]
+    bounded = np.array([1.2, 1.0, 0.5, 2.0, 1.5, 3.0, 2.5])  # the first (where the approach ends) and last fixed
+    fixed = np.array([True, False, False, False, False, False, True])
+    assert monotone.held(bounded, 1, fixed).tolist() == [1.2, 1.2, 1.2, 1.75, 1.75, 2.5, 2.5]
 
 
 def test_the_hemishell_cycle_is_written_with_its_approach_moved_in_x_only():
