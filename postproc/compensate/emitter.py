@@ -105,6 +105,9 @@ class Writer:
     grid: Grid
     system: str  #: the control's G-code system (the machine profile's gcode_system)
     absolute: bool = True  #: G90 in systems B and C (X and Z absolute)
+    #: the axes a line is written with: a type I G71 approach keeps moving X only (its Z stays
+    #: where it was), or the cycle would read it as type II
+    axes: str = "XZ"
 
     @staticmethod
     def motion_of(cut: Cut) -> int:
@@ -124,7 +127,8 @@ class Writer:
         if not self.absolute:
             x_word = rounded(x_word - grid.x_word(cut.x0), grid.decimals)
             z_word = rounded(z_word - grid.z_word(cut.z0), grid.decimals)
-        words = [style.word("X", style.number(x_word, grid.decimals)), style.word("Z", style.number(z_word, grid.decimals))]
+        words = [style.word(letter, style.number(word, grid.decimals))
+                 for letter, word in (("X", x_word), ("Z", z_word)) if cut.is_arc or letter in self.axes]
         if cut.is_arc:
             i_word = grid.offset_word(cut.xc - cut.x0)
             k_word = grid.offset_word(cut.zc - cut.z0)

@@ -13,7 +13,10 @@ the two is settled, then the window is written out:
   incrementally gets its end written out absolutely; anything else (an arc, a cycle, a
   thread) gets a connecting G01 back to the nominal end first;
 - a block whose motion mode the replacement no longer leaves in force (it relied on
-  modal G03, say) gets that code written in front of it.
+  modal G03, say) gets that code written in front of it;
+- a G71/G72 contour is read whole before it is written: its approach (the first block) is
+  not corrected but ends where the corrected contour starts, in the axes it moves, and the
+  contour is held to run one way as the cycle requires (:mod:`.monotone`), or refused.
 
 Unchanged blocks are copied byte for byte. Every replacement is checked by reading its
 text back through the interpreter and measuring the result against the target
@@ -38,14 +41,15 @@ from ..machine.profile import MachineProfile
 from .compensator import Piece
 from .emitter import Style, Writer, with_motion_code
 from .farthest import farthest, within
+from . import monotone
 from .request import Request
 from ..geometry import Arc, Line, segment_of
 from ..interpret.interpreter import Interpreter
 from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
 from ..syntax.reader import read_blocks
 from ..machine.resolution import Grid
-from .segmenter import (RADIUS_CHECK, RESOLUTION, TOLERANCE, Cut, Limits, Plan, PlanError, Segmenter, Target,
-                        measure_bends, plan, sample_params)
+from .segmenter import (LINE_MODE, RADIUS_CHECK, RESOLUTION, TOLERANCE, Cut, Limits, Plan, PlanError, Segmenter,
+                        Target, measure_bends, plan, sample_params)
 
 JOIN = 1e-9  #: nominal points closer than this are the same point
 #: What becomes of a block whose geometry words read macro variables (``X[#504+6.]``) when it
@@ -181,6 +185,8 @@ class Edit:
     lead_in: Cut | None = None  #: connecting move before the first target
     lead_out: Cut | None = None  #: connecting move after the last target
     spans: list[tuple[int, int]] = field(default_factory=list)  #: each plan's cuts in the block's cut list
+    #: target index -> the target as corrected, before a cycle's one-way rule held it
+    held: dict[int, Target] = field(default_factory=dict)
 
     @property
     def start(self) -> tuple[float, float]:
@@ -198,6 +204,7 @@ class Entry:
     retarget: tuple[tuple[float, float] | None, tuple[float, float] | None] | None = None  #: new (start, end)
     refusal: PostprocError | None = None  #: found while correcting the batch, raised when the step is reached
     kept: bool = False  #: left as it is (keep_unplannable): its neighbours meet it, it does not move to meet them
+    axes: str = "XZ"  #: the axes its replacement is written with (a type I cycle's approach: one)
 
     @property
     def edited(self) -> bool:
@@ -206,6 +213,21 @@ class Entry:
     @property
     def motion(self) -> bool:
         return any(move.role in (RUN, CONTOUR, CORNER) for move in self.step.moves)
+
+
+@dataclass
+class _OneWay:
+    """A G71/G72 contour being written under its one-way rule (:mod:`.monotone`)."""
+
+    cycle: str  #: "G71 type I"...
+    cycle_line: int
+    approach: Entry  #: the contour's first block, from the cycle's start point
+    movable: str  #: the axes the approach may end elsewhere in ("" when its block cannot be rewritten)
+    ways: dict[int, int | None]  #: axis -> the way the nominal runs: +1, -1, 0 (not at all), None (it turns)
+    noise: float  #: mm; a turn back by less is none the control can command (half its least increment)
+    start: tuple[float, float] | None = None  #: where the approach ends as written
+    written: list[Cut] = field(default_factory=list)  #: the shape as written, after the approach
+    steps: list[Step] = field(default_factory=list)  #: the step each written cut belongs to
 
 
 class Rewriter:
@@ -233,7 +255,11 @@ class Rewriter:
         self.worst = 0.0  #: largest measured deviation from a target, mm
         self.unplannable: list[tuple[int, str]] = []  #: (line, limit) of each block left uncompensated
         self.macro_lines: list[int] = []  #: blocks whose macro values were written as numbers, or kept for them
-        self._contour: tuple[list[Cut], list[Cut]] | None = None
+        self.held: list[tuple[int, float]] = []  #: (line, mm off the corrected path) of each block a cycle's one-way rule held
+        self._one_way: _OneWay | None = None  # the G71/G72 contour being written, and its rule
+        self._pending: list[Entry] | None = None  # a G71/G72 contour's entries, held until its last block is read
+        self._window: list[Entry] = []  # the last motion step and the steps after it, not yet written
+        self._previous: Entry | None = None  # the last motion step
         self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
         self._checker: Interpreter | None = None  # reads replacements back (the self-check)
         self._grids: dict[bool, Grid] = {}  # by inch
@@ -244,31 +270,54 @@ class Rewriter:
     # ------------------------------------------------------------------ streaming
 
     def run(self) -> Iterator[str]:
-        window: list[Entry] = []
-        previous: Entry | None = None
+        self._window, self._previous, self._pending = [], None, None
         self.mode_now = self.original_mode = None
         for batch in self._corrected(self.steps):
             for entry in batch:
-                if entry.refusal is not None:
-                    raise entry.refusal
-                if entry.motion:
-                    if entry.edited:
-                        self._plan_edits(entry)
-                    if previous is not None:
-                        self._join(previous, entry)
-                    yield from self._flush(window)
-                    window = [entry]
-                    previous = entry
+                if self._pending is None and entry.step.contour_start and entry.step.cycle in monotone.ONE_WAY_CYCLES:
+                    self._pending = []
+                if self._pending is not None:  # a G71/G72 contour is settled as a whole, then written
+                    self._pending.append(entry)
+                    if entry.step.contour_end or not entry.step.in_contour:
+                        yield from self._release()
+                elif entry.refusal is None and not entry.motion:
+                    self._window.append(entry)
                 else:
-                    window.append(entry)
-        if previous is not None:
-            self._join(previous, None)
-        yield from self._flush(window)
+                    yield from self._take(entry)
+        if self._pending is not None:
+            yield from self._release()
+        if self._previous is not None:
+            self._join(self._previous, None)
+        yield from self._flush(self._window)
         if len(self.macro_lines) > NAMED:
             done = ("left uncompensated" if self.request.macro_values == KEEP
                     else "written with their macro values as numbers")
             self.reporter.warn(f"{len(self.macro_lines)} blocks in all {done} (--macro-values "
                                f"{self.request.macro_values}); the first {NAMED} are named above", Location(self.file))
+
+    def _take(self, entry: Entry) -> Iterator[str]:
+        """One step in program order: a motion step is planned, joined to the motion step
+        before it, and the window before it written out."""
+        if entry.refusal is not None:
+            raise entry.refusal
+        if not entry.motion:
+            self._window.append(entry)
+            return
+        if entry.edited:
+            self._plan_edits(entry)
+            if self._one_way is not None and entry.step.in_contour:
+                self._hold_plans(entry)
+        if self._previous is not None:
+            self._join(self._previous, entry)
+        yield from self._flush(self._window)
+        self._window = [entry]
+        self._previous = entry
+
+    def _release(self) -> Iterator[str]:
+        entries, self._pending = self._pending, None
+        self._one_way = self._settle_one_way(entries)
+        for entry in entries:
+            yield from self._take(entry)
 
     def _corrected(self, steps: Iterable[Step]) -> Iterator[list[Entry]]:
         """The steps in batches of at most BATCH, each motion step with its edits: the pieces
@@ -302,6 +351,7 @@ class Rewriter:
             and (move.kind == ARC or (move.x0, move.z0) != (move.x1, move.z1))  # a line of no length: nothing to move
             and move.role in (RUN, CONTOUR, CORNER)
             and step.block.delete is None
+            and not (step.contour_start and step.cycle in monotone.ONE_WAY_CYCLES)  # the approach: it meets the shape
             and self.selects(step, move)
         )
 
@@ -393,8 +443,14 @@ class Rewriter:
             first_edit.lead_in = self._connector(last_edit.end, first_edit.start, entry.step)  # None when they meet
             return
         if first_edit is not None:  # only the following move changed: meet its new start
-            if self._simple(previous) and not self._starts_contour(previous):
+            if self._simple(previous) and not previous.step.contour_start:
                 self._retarget(previous, end=first_edit.start)
+            elif self._one_way is not None and previous is self._one_way.approach and self._one_way.movable:
+                axes = self._one_way.movable  # the approach ends at the new start in the axes it moves
+                end = tuple(first_edit.start[axis] if "XZ"[axis] in axes else nominal[axis] for axis in (0, 1))
+                self._retarget(previous, end=end)
+                previous.axes = axes
+                first_edit.lead_in = self._connector(end, first_edit.start, entry.step)
             else:
                 first_edit.lead_in = self._connector(nominal, first_edit.start, entry.step)
             return
@@ -447,11 +503,6 @@ class Rewriter:
         entry.retarget = (start or old_start, end or old_end)
 
     @staticmethod
-    def _starts_contour(entry: Entry) -> bool:
-        """The first block of a P..Q contour: its form (X only for a type I G71) must stay."""
-        return entry.step.in_contour and entry.step.moves[0].role == CONTOUR and entry.step.block.label is not None
-
-    @staticmethod
     def _has_corner(block: Block) -> bool:
         return block.fields is None and any(letter in (",C", ",R") for letter, _ in block.codes)
 
@@ -482,6 +533,10 @@ class Rewriter:
             grid = self._grid(step)
             steps = self._grid_steps[inch] = (grid.x_step, grid.z_step)
         return steps
+
+    def _noise(self, step: Step) -> float:
+        """Half the least increment of the output (mm, the smaller of X's, a radius, and Z's)."""
+        return min(self._steps(step)) / 2.0
 
     def _allowance(self, step: Step) -> tuple[float, float]:
         """The tolerance the last check counts (at most MAX_TOLERANCE) and one output step in mm
@@ -555,7 +610,7 @@ class Rewriter:
                                               "the block no longer follows the variables it reads")
         cuts = self._cuts(entry)
         self._within_limits(step, cuts)
-        writer = Writer(self._grid(step), self.profile.gcode_system, step.modal.absolute)
+        writer = Writer(self._grid(step), self.profile.gcode_system, step.modal.absolute, entry.axes)
         lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
         self._self_check(entry, lines, cuts)
         self._near_nominal(entry, cuts)
@@ -592,7 +647,7 @@ class Rewriter:
                 edit = entry.edits[index] = _as_it_is(move)  # written out, for it shares the block with a change
             add(edit.lead_in)
             if not edit.plans:
-                edit.plans = [self._plan(step, target) for target in edit.targets]
+                edit.plans = [self._plan(step, target, edit.held.get(i)) for i, target in enumerate(edit.targets)]
             for planned in edit.plans:
                 self.worst = max(self.worst, planned.deviation)
                 add(planned.cuts[0])
@@ -648,7 +703,7 @@ class Rewriter:
                 if edit is None and move.kind != RAPID:  # written out, for it shares the block with a change
                     edit = entry.edits[index] = _as_it_is(move)
                 if edit is not None:
-                    edit.plans = [self._plan(step, target) for target in edit.targets]
+                    edit.plans = [self._plan(step, target, edit.held.get(i)) for i, target in enumerate(edit.targets)]
         except UnplannableBlock as exc:
             if not self.request.keep_unplannable:
                 raise
@@ -657,19 +712,42 @@ class Rewriter:
             self.unplannable.append((step.block.line, exc.limit))
             self.reporter.warn(f"block left uncompensated (--keep-unplannable): {exc.cause}", exc.location)
 
-    def _plan(self, step: Step, target: Target) -> Plan:
-        key = (self._tolerance(step), step.modal.inch)
-        limits = self._limits.get(key)
-        if limits is None:
-            limits = self._limits[key] = Limits(key[0], self._grid(step), self.profile.arc_radius_tolerance,
-                                                self.profile.max_arc_radius)
+    def _plan(self, step: Step, target: Target, corrected: Target | None = None) -> Plan:
+        """The blocks for a target. ``corrected``: the target as corrected, before a cycle's
+        one-way rule held it; the blocks must keep within the tolerance of that one too. They
+        usually do when planned for the held target (a held point often slides along the
+        path); if not, they are planned within what the holding left of the tolerance."""
+        limits = self._limits_for(step)
         try:
             result = plan(target, limits, self.request.mode)
+            if corrected is not None and not self._holds(result.cuts, corrected, limits):
+                held = monotone.off_path(target.points, corrected.points)
+                limits = self._limits_for(step, held)
+                try:
+                    result = plan(target, limits, self.request.mode)
+                except PlanError as exc:
+                    exc.args = (f"held to run one way as its cycle needs, the block runs {monotone.microns(held)} off "
+                                f"its corrected path, which leaves {monotone.microns(limits.tolerance)} of the "
+                                f"tolerance: {exc}",)
+                    exc.needed = None if exc.needed is None else exc.needed + held
+                    raise
         except PlanError as exc:
             raise self._unplannable(step, exc.limit, str(exc), exc.needed) from None
         if len(result.cuts) > 1:  # one block has no neighbour to merge with
             result = self._keep_long(result, target, limits, self._length_rule(step, result.cuts), step)
         return result
+
+    @staticmethod
+    def _holds(cuts: list[Cut], target: Target, limits: Limits) -> bool:
+        return Segmenter(target, limits).measure(cuts) <= limits.tolerance
+
+    def _limits_for(self, step: Step, held: float = 0.0) -> Limits:
+        key = (self._tolerance(step) - held, step.modal.inch)
+        limits = self._limits.get(key)
+        if limits is None:
+            limits = self._limits[key] = Limits(key[0], self._grid(step), self.profile.arc_radius_tolerance,
+                                                self.profile.max_arc_radius)
+        return limits
 
     def _unplannable(self, step: Step, limit: str, cause: str, needed: float | None) -> UnplannableBlock:
         """The refusal of a block that cannot be held: which limit stops it, where (the word it
@@ -763,33 +841,178 @@ class Rewriter:
 
     # ------------------------------------------------------------------ cycle contours
 
-    def _follow_contour(self, step: Step, cuts: list[Cut] | None) -> None:
-        """Collect a P..Q contour as planned and as written; at its end, check the cycle's rules."""
-        if not step.in_contour:
-            return
-        contour = self._contour
-        if contour is None:
-            contour = self._contour = ([], [])
-        nominal = [_cut_of(m) for m in step.moves if m.role == CONTOUR and m.known]
-        contour[0].extend(nominal)
-        if cuts is None:  # written as it was: from wherever the previous block left the tool
-            cuts = list(nominal)
-            if cuts and contour[1] and not cuts[0].is_arc:
-                cuts[0] = cuts[0]._replace(x0=contour[1][-1].x1, z0=contour[1][-1].z1)
-        contour[1].extend(cuts)
-        if step.contour_end:
-            self._contour = None
-            self._check_monotone(step, *contour)
+    def _settle_one_way(self, entries: list[Entry]) -> _OneWay:
+        """The rule of a G71/G72 contour read whole, its targets held to it (:mod:`.monotone`).
 
-    def _check_monotone(self, step: Step, nominal: list[Cut], written: list[Cut]) -> None:
-        """A G71/G72 contour must keep running one way in each axis it ran one way before."""
-        for axis, name in ((0, "X"), (1, "Z")):
-            direction = _monotone(nominal, axis)
-            if direction and _monotone(written, axis) not in (direction, 0):
+        Each axis the cycle needs run one way is held over the whole contour, from where the
+        approach ends (or, in an axis the approach may be moved in, from the first corrected
+        point): where the corrected points run back, each is met halfway between the furthest
+        value before it and the nearest after it, within the blocks written as they were. A
+        target held off its corrected path by more than the tolerance refuses the run; one
+        held within it is planned to keep within the tolerance of both, with a warning naming
+        its block when the hold takes more than half the tolerance."""
+        approach = entries[0]
+        step = approach.step
+        axes, carries, cycle = monotone.rule(step.cycle, {letter for letter, _ in step.block.codes})
+        shape = [(entry, index, move) for entry in entries[1:] if entry.step.in_contour
+                 for index, move in enumerate(entry.step.moves) if move.role == CONTOUR]
+        drawn = [move for _, _, move in shape if move.kind in (LINE, ARC, RAPID)]
+        nominal = [_cut_of(move) for move in drawn if move.known]
+        noise = self._noise(step)
+        ways = {axis: monotone.direction(nominal, axis, noise) for axis in axes}
+        movable = carries if self._simple(approach) else ""
+        one_way = _OneWay(cycle, step.cycle_line or step.block.line, approach, movable, ways, noise)
+        ends = [move for move in step.moves if move.role == CONTOUR and move.known]
+        if not ends or len(nominal) < len(drawn):
+            return one_way  # a contour not known throughout: only what is written is checked
+        start = (ends[-1].x1, ends[-1].z1)
+        points: dict[tuple[int, int], np.ndarray] = {}  # (id of the edit, target index) -> its points as held
+        for axis, way in ways.items():
+            if way:
+                self._hold_targets(shape, axis, way, None if "XZ"[axis] in movable else start[axis], points)
+        edits = {id(edit): (entry, edit) for entry in entries for edit in entry.edits if edit is not None}
+        tolerance = self._tolerance(step)
+        for (key, index), held in points.items():
+            entry, edit = edits[key]
+            target = edit.targets[index]
+            moved = np.any(held != target.points, axis=1)
+            if not moved.any():
+                continue
+            off = monotone.off_path(held[moved], target.points)
+            changed = [axis for axis in axes if np.any(held[:, axis] != target.points[:, axis])]
+            names = "/".join(map(monotone.name, changed))
+            where = _at_geometry(self.file, entry.step)
+            rule = f"the {cycle} cycle on line {one_way.cycle_line} needs its contour to run one way in " \
+                   f"{' and '.join(map(monotone.name, axes))} (FANUC alarm {monotone.alarm(axes)})"
+            if off > tolerance:
                 raise SafetyError(
-                    f"the compensated contour of the cycle on line {step.cycle_line} would no longer run one way in "
-                    f"{name}, as the cycle requires (FANUC alarm PS0064); the run is refused",
-                    _where(self.file, step))
+                    f"{rule}; held to run one way in {names}, this block would run {monotone.microns(off)} off its "
+                    f"corrected path, more than the tolerance ({monotone.microns(tolerance)}): no one-way path "
+                    f"within the tolerance follows the correction here; refused (a --tolerance above "
+                    f"{_rounded_up(off)} mm may accept the one-way path; else leave this program uncompensated, or "
+                    "correct the part with a tool offset)",
+                    where)
+            edit.targets[index] = Target.along(target.nominal, target.t, held - (target.points - target.d),
+                                               target.points - target.d)
+            edit.held[index] = target
+            steps = self._steps(entry.step)
+            # worth a word when it takes more than half the tolerance (the rest is the segmenter's) and
+            # moves a word by more than rounding does (half a step)
+            if off > max(tolerance, min(steps[axis] for axis in changed)) / 2.0:
+                self.held.append((entry.step.block.line, off))
+                self.reporter.warn(f"block held to run one way in {names}, as {rule}: it runs up to "
+                                   f"{monotone.microns(off)} off its corrected path, within the tolerance", where)
+        return one_way
+
+    @staticmethod
+    def _hold_targets(shape: list[tuple[Entry, int, Move]], axis: int, way: int, low: float | None,
+                      points: dict[tuple[int, int], np.ndarray]) -> None:
+        """Hold the targets of a contour's moves to run one way (``way``) in the axis, from ``low``
+        (None: from the first corrected point on), all in one pass (:func:`monotone.held` over
+        the whole contour); the blocks written as they were are bounds it keeps to. The targets
+        it changes are put in ``points``, keyed by (id of the edit, target index)."""
+        keys: list[tuple[int, int] | None] = []  # each part's target, or None for a block written as it was
+        parts: list[np.ndarray] = []
+        targets: dict[tuple[int, int], Target] = {}
+        for entry, index, move in shape:
+            edit = entry.edits[index]
+            if edit is not None:
+                for number, target in enumerate(edit.targets):
+                    key = (id(edit), number)
+                    targets[key] = target
+                    keys.append(key)
+                    parts.append(points[key][:, axis] if key in points else target.points[:, axis])
+            elif move.known and move.kind in (LINE, ARC, RAPID):
+                values = monotone.along(_cut_of(move), axis)
+                follows = len(entry.step.moves) == 1 and move.kind in (LINE, RAPID)  # may start where the last one ends
+                keys.append(None)
+                parts.append(np.array(values[1:] if follows else values))
+        if low is not None:
+            keys.insert(0, None)
+            parts.insert(0, np.array([low]))
+        if not parts:
+            return
+        values = np.concatenate(parts)
+        fixed = np.repeat([key is None for key in keys], [len(part) for part in parts])
+        held = monotone.held(values, way, fixed)
+        starts = np.cumsum([0] + [len(part) for part in parts[:-1]])
+        for part in sorted(set(np.searchsorted(starts, np.flatnonzero(held != values), "right") - 1)):
+            key = keys[part]
+            if key is None:
+                continue  # a block written as it was keeps its values (the check at the contour's end sees it)
+            if key not in points:
+                points[key] = targets[key].points.copy()
+            points[key][:, axis] = held[starts[part] : starts[part] + len(parts[part])]
+
+    def _hold_plans(self, entry: Entry) -> None:
+        """Blocks planned for a held target may still run back a little (a chord's vertex standing
+        off the target, an arc whose apex falls just inside it): such a plan is planned again in
+        lines whose vertices are held to run one way, kept when it stays within the tolerance.
+        What still turns back is refused at the contour's end."""
+        ways = {axis: way for axis, way in self._one_way.ways.items() if way}
+        noise = self._one_way.noise
+        for edit in entry.edits:
+            if edit is None or not ways:
+                continue
+            for index, (target, planned) in enumerate(zip(edit.targets, edit.plans)):
+                cuts = planned.cuts
+                if (len(cuts) == 1 and not cuts[0].is_arc) or not _turns_back(cuts, ways, noise):
+                    continue  # one line runs one way
+                limits = self._limits_for(entry.step)
+                try:
+                    chords = plan(target, limits, LINE_MODE)
+                except PlanError:
+                    continue
+                cuts = monotone.clamp_vertices(chords.cuts, ways)
+                if not cuts or _turns_back(cuts, ways, noise):
+                    continue
+                deviation = Segmenter(target, limits).measure(cuts)
+                corrected = edit.held.get(index)
+                if deviation <= limits.tolerance and (corrected is None or self._holds(cuts, corrected, limits)):
+                    edit.plans[index] = Plan(cuts, deviation, chords.method + "+one-way")
+
+    def _follow_contour(self, step: Step, cuts: list[Cut] | None) -> None:
+        """Collect a G71/G72 contour as written; at its end, check the cycle's one-way rule."""
+        one_way = self._one_way
+        if one_way is None or not step.in_contour:
+            return
+        if cuts is None:  # written as it was: from wherever the previous block left the tool
+            cuts = [_cut_of(m) for m in step.moves if m.role == CONTOUR and m.known and m.kind in (LINE, ARC, RAPID)]
+            previous = one_way.written[-1].end if one_way.written else one_way.start
+            if cuts and previous is not None and not cuts[0].is_arc:
+                cuts[0] = cuts[0]._replace(x0=previous[0], z0=previous[1])
+        if step.contour_start:
+            one_way.start = cuts[-1].end if cuts else None
+        else:
+            one_way.written.extend(cuts)
+            one_way.steps.extend([step] * len(cuts))
+        if step.contour_end:
+            self._one_way = None
+            self._check_one_way(one_way)
+
+    def _check_one_way(self, one_way: _OneWay) -> None:
+        """The contour as written, from where its approach ends, must run one way in each axis
+        the cycle needs (as the nominal one did); the block where it turns back is named."""
+        written = one_way.written
+        if not written:
+            return
+        start = one_way.start or written[0].start
+        for axis, way in one_way.ways.items():
+            if way is None:
+                continue  # the nominal contour turns back already: the control alarms on the program as it was
+            if way == 0:  # the nominal does not move in the axis: either way will do, but one
+                values = [start[axis]] + [value for cut in written for value in monotone.along(cut, axis)]
+                way = next((1 if b > a else -1 for a, b in zip(values, values[1:]) if abs(b - a) > one_way.noise), 0)
+                if not way:
+                    continue
+            turn = monotone.first_turn(start[axis], written, axis, way, one_way.noise)
+            if turn is not None:
+                index, reached, value = turn
+                raise SafetyError(
+                    f"the compensated contour of the {one_way.cycle} cycle on line {one_way.cycle_line} would turn back "
+                    f"in {monotone.name(axis)} here, by {monotone.microns(abs(value - reached))}; the cycle needs it to "
+                    f"run one way in {' and '.join(map(monotone.name, one_way.ways))} (FANUC alarm "
+                    f"{monotone.alarm(tuple(one_way.ways))}): refused", _at_geometry(self.file, one_way.steps[index]))
 
     # ------------------------------------------------------------------ self-check
 
@@ -913,6 +1136,13 @@ def _where(file: str, step: Step) -> Location:
     return Location(file, step.block.line, None, step.block.text)
 
 
+def _at_geometry(file: str, step: Step) -> Location:
+    """A block's first geometry word (X, Z, U or W), for an error about where it runs."""
+    block = step.block
+    word = next((w for w in block.words if w.letter in "XZUW"), None)
+    return Location(file, block.line, None if word is None else word.col + 1, block.text)
+
+
 def _cut_of(move: Move) -> Cut:
     if move.kind == ARC:
         return Cut(move.x0, move.z0, move.x1, move.z1, move.xc, move.zc, move.cw)
@@ -939,14 +1169,9 @@ def _tangent(cut: Cut, end: bool) -> tuple[float, float]:
     return (-rz / norm, rx / norm) if cut.cw else (rz / norm, -rx / norm)
 
 
-def _monotone(cuts: list[Cut], axis: int) -> int:
-    """+1 or -1 when the path never turns back along the axis, 0 when it does not move, None when it turns."""
-    values = np.concatenate([cut.sample(0.5) for cut in cuts])[:, axis] if cuts else np.zeros(1)
-    steps = np.diff(values)
-    rising, falling = bool(np.any(steps > 1e-7)), bool(np.any(steps < -1e-7))
-    if rising and falling:
-        return None
-    return 1 if rising else (-1 if falling else 0)
+def _turns_back(cuts: list[Cut], ways: dict[int, int], noise: float) -> bool:
+    return any(monotone.first_turn(cuts[0].start[axis], cuts, axis, way, noise) is not None
+               for axis, way in ways.items())
 
 
 def _numbers(cut: Cut) -> tuple[float, ...]:

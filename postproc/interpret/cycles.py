@@ -40,7 +40,7 @@ class ContourCycles:
             moves = ()
         recorded = self.contours.get((p, q))
         if p_line > block.line:
-            contour = _Contour(p, q, block.line, start=start)
+            contour = _Contour(p, q, block.line, start=start, meaning=meaning)
             self._expect = (contour, self.modal, start, name, meaning)
             if meaning == G.FINISH:
                 return Step(block, (), self.modal)

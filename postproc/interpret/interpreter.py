@@ -239,6 +239,8 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
         if in_contour:
             step.in_contour = True
             step.cycle_line = self._capture.contour.cycle_line
+            step.cycle = self._capture.contour.meaning
+            step.contour_start = not self._capture.contour.blocks
             step.contour_end = self._contour_block(block)
         step.shared = self._shared
         return step

@@ -110,4 +110,6 @@ class Step:
     in_contour: bool = False  #: the block belongs to a P..Q cycle contour
     contour_end: bool = False  #: the block is its contour's last (the Q label the cycle looks for)
     cycle_line: int | None = None  #: for a contour block, the line of the cycle that runs it
+    cycle: str | None = None  #: for a contour block, what its cycle does (gcodes.ROUGH_TURN for a G71...)
+    contour_start: bool = False  #: the block is its contour's first (the P label): the approach from the start point
     shared: bool = False  #: the block is in a local subprogram called from more than one place

@@ -72,6 +72,7 @@ class _Contour:
     q: int
     cycle_line: int
     blocks: list[Block] = field(default_factory=list)
+    meaning: str | None = None  #: what the cycle does (gcodes.ROUGH_TURN for a G71...)
     moves: list[Move] = field(default_factory=list)
     start: tuple[float | None, float | None] = (None, None)
 

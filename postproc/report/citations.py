@@ -67,6 +67,7 @@ TITLES = {
     ("methods.md", "12"): "The four figures",
     ("methods.md", "13"): "From a corrected path to blocks: the segmenter",
     ("methods.md", "14"): "Writing the corrected program",
+    ("methods.md", "14.1"): "G71/G72 contours: the one-way rule",
     ("methods.md", "15"): "Partial-arc ballbar tests",
     ("methods.md", "15.1"): "The captured arc",
     ("methods.md", "15.2"): "The set-up centre, fitted with the model",

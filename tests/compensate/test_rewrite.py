@@ -11,6 +11,7 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from support import SAMPLES
+from support.cycles import turn_backs
 from support.interpret import moves
 from postproc.diagnostics import InterpretationError, Reporter, SafetyError
 from postproc.geometry import Arc
@@ -221,17 +222,38 @@ def _is_motion(line: str) -> bool:
 
 
 def test_a_cycle_contour_that_would_turn_back_is_refused():
+    """A correction that bulges the diameter N20 turns along (out, then back in: X runs back)
+    cannot be held to run one way within 1 um: refused, naming the block and the rule."""
+    text = ("G18 G21 G99\nG00 X60. Z5.\nG71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\nN10 G00 X20.\nG01 Z0. F0.1\n"
+            "X30.\nG02 X40. Z-5. R5.\nN20 G01 Z-20.\nG70 P10 Q20\n")
+
+    def bulge(piece):
+        if piece.move.line != 9:
+            return None
+        t = np.asarray(piece.t, dtype=float)
+        return np.column_stack([0.005 * np.sin(np.pi * t), np.zeros(len(t))])
+
+    with pytest.raises(SafetyError) as info:
+        rewrite(text, bulge, tolerance=0.001)
+    assert info.value.location.line == 9
+    assert "one way in X and Z" in info.value.message and "line 4" in info.value.message
+    assert "G71 type I" in info.value.message and "2.50 um off its corrected path" in info.value.message
+    out, _ = rewrite(text, radial(-0.003), tolerance=0.001)  # inwards keeps Z running one way
+    assert "N20" in out and turn_backs(out) == []
+
+
+def test_a_cycle_contour_whose_correction_slides_along_its_start_is_held_to_it():
+    """The fillet N8 starts running along Z: lifted 5 um in Z, its start would rise above the face
+    N6 ends on (Z turning back). Held at Z0. it lies on the lifted path: written, one way."""
     text = ("G18 G21 G99\nG00 X60. Z5.\nG71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\nN10 G00 X20.\nG01 Z0. F0.1\n"
             "X30.\nG02 X40. Z-5. R5.\nN20 G01 Z-20.\nG70 P10 Q20\n")
 
     def lift(piece):
         return np.tile([0.0, 0.005], (len(piece.t), 1)) if isinstance(piece.segment, Arc) else None
 
-    with pytest.raises(SafetyError) as info:
-        rewrite(text, lift, tolerance=0.001)
-    assert "one way in Z" in info.value.message and "line 4" in info.value.message
-    out, _ = rewrite(text, radial(-0.003), tolerance=0.001)  # inwards keeps Z running one way
-    assert "N20" in out
+    out, rewriter = rewrite(text, lift, tolerance=0.001)
+    assert turn_backs(out) == [] and rewriter.held == []  # held along its own path: nothing to warn of
+    assert "G02 X40. Z-4.995" in out and "X30. Z0." in out
 
 
 def test_no_block_under_cutter_compensation_turns_back_under_the_nose_radius():
