@@ -7,7 +7,7 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 
 from postproc.measure import ballbar_fit, error_map
-from postproc.measure.ballbar_analysis import Estimate, check_saved, screen, tests
+from postproc.measure.ballbar_analysis import Estimate, check_saved, paired, screen
 from postproc.compensator import Compensator, Measurements, Option, Piece
 from postproc.diagnostics import Location, MeasurementError, ModelError, SafetyError
 from postproc.measure.figures import figures
@@ -91,10 +91,7 @@ class ErrorMap(Compensator):
 
     def fit(self, measurements: Measurements) -> None:
         traces = list(measurements.ballbar)
-        if len({t.direction for t in traces}) < 2:
-            raise MeasurementError(f"{self.name} needs a ccw (G03) and a cw (G02) trace of each test; all "
-                                   f"{len(traces)} are {traces[0].direction}", Location(traces[-1].path))
-        ordered = [trace for test in tests(traces) for trace in test]
+        ordered = [trace for test in paired(traces, self.name) for trace in test]
         screen(traces, self.context.reporter, self.context.force, self.name)
         samples = ballbar_fit.Samples.of(ordered)
         positions = np.column_stack([samples.x, samples.z])

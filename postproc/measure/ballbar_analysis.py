@@ -68,7 +68,8 @@ from .figures import Figures, figures
 from .readers.ballbar import BallbarTrace
 
 __all__ = ["MAX_GAP_DEG", "Estimate", "CircularTest", "Diagnosis", "DirectionFigures", "circular_deviation",
-           "circular_test", "diagnose", "jointly_centred", "plausibility", "predict", "screen", "tests"]
+           "circular_test", "diagnose", "jointly_centred", "one_test", "paired", "plausibility", "predict", "screen",
+           "tests"]
 
 SCALING_BACKLASH = ("scaling_x", "scaling_z", "backlash_x", "backlash_z")  #: fitted from any trace
 CENTRE = ("centre_x", "centre_z")  #: the set-up centre
@@ -152,12 +153,42 @@ def tests(traces: Sequence[BallbarTrace]) -> list[tuple[BallbarTrace, ...]]:
     return [tuple(sorted(test, key=lambda t: t.direction != "ccw")) for test in grouped]
 
 
+def one_test(traces: Sequence[BallbarTrace], who: str = "") -> tuple[BallbarTrace, ...]:
+    """The traces of one test, ccw runs first; traces of another radius or centre are refused
+    naming every test's files."""
+    grouped = tests(traces)
+    if len(grouped) != 1:
+        raise MeasurementError(f"{who + ': ' if who else ''}the traces are of {len(grouped)} different tests (a test is "
+                               f"one radius and one centre): {ballbar_fit.tests_text(grouped)}; give the traces of one "
+                               "test, or correct the radius or centre in a file's header", Location(grouped[1][0].path))
+    return grouped[0]
+
+
+def paired(traces: Sequence[BallbarTrace], who: str) -> list[tuple[BallbarTrace, ...]]:
+    """The traces grouped by test (:func:`tests`), every test with a ccw and a cw run.
+
+    A ccw and a cw trace pair only when they are of one test (one radius, one nominal centre,
+    one mount): what flips with the direction (backlash, servo mismatch) is told from what
+    does not by comparing the two runs over one circle, and two circles differ by their
+    set-up centres and by the machine's errors where they lie. A test with one direction is
+    refused naming every test's files, whether its partner is missing or is of another test.
+    """
+    grouped = tests(traces)
+    lone = [test for test in grouped if len({t.direction for t in test}) < 2]
+    if lone:
+        missing = "cw" if lone[0][0].direction == "ccw" else "ccw"
+        raise MeasurementError(
+            f"{who} needs a ccw (G03) and a cw (G02) trace of each test (one radius, one centre), and the traces "
+            f"are of {len(grouped)} test{'s' if len(grouped) > 1 else ''}: {ballbar_fit.tests_text(grouped)}; "
+            f"R {lone[0][0].radius:g} mm about x {lone[0][0].centre[0]:g}, z {lone[0][0].centre[1]:g} mm has no "
+            f"{missing} trace: give it, or correct the radius or centre in a file's header if two files are of one test",
+            Location(lone[0][0].path))
+    return grouped
+
+
 def circular_test(traces: Sequence[BallbarTrace]) -> CircularTest:
     """G and F of each trace of one test; G(b) and H of its first ccw and first cw trace."""
-    ordered = tests(traces)
-    if len(ordered) != 1:
-        raise MeasurementError("the traces are of different tests (another radius or centre)", Location(traces[-1].path))
-    ordered = ordered[0]
+    ordered = one_test(traces)
     by_direction = tuple(
         DirectionFigures(t.direction, circular_deviation(t), float(t.deviations.min()), float(t.deviations.max()),
                          figures(t.deviations), t.arc, t.path)
@@ -188,9 +219,19 @@ def diagnose(traces: Sequence[BallbarTrace], limit: float = ballbar_fit.EFFECT_L
     """Fit the machine model to any number of tests, each with its own set-up centre.
 
     Refuses (MeasurementError naming the arcs and the parameter) when a parameter cannot be
-    separated or its 3-sigma effect exceeds ``limit`` mm.
+    separated or its 3-sigma effect exceeds ``limit`` mm; and (naming every test's files) when
+    the ccw and the cw traces are of different tests only: squareness and servo mismatch are
+    told apart by the two directions over one circle, and across circles the set-up centres and
+    the machine's errors where each lies differ (a 200 mm move of the centre read 10 urad of
+    squareness more, 3 sigma 1 urad, on the sample lathe).
     """
     grouped = tests(traces)
+    if len({t.direction for t in traces}) == 2 and all(len({t.direction for t in test}) == 1 for test in grouped):
+        raise MeasurementError(
+            "the ccw and the cw traces are of different tests (a test is one radius and one centre), and the "
+            f"directions pair only within a test: {ballbar_fit.tests_text(grouped)}; give each test's other "
+            "direction, or correct the radius or centre in a file's header if two files are of one test",
+            Location(grouped[1][0].path))
     ordered = [trace for test in grouped for trace in test]
     samples = ballbar_fit.Samples.of(ordered)
     names = model_names(ordered)

@@ -106,6 +106,18 @@ def mounts(traces: Sequence[BallbarTrace]) -> list[list[int]]:
     return list(groups.values())
 
 
+def test_text(test: Sequence[BallbarTrace]) -> str:
+    """One test's circle and its traces, for messages: ``R 100 mm about x 0, z -200 mm: ccw a.csv, cw b.csv``."""
+    first = test[0]
+    return (f"R {first.radius:g} mm about x {first.centre[0]:g}, z {first.centre[1]:g} mm: "
+            + ", ".join(f"{trace.direction} {trace.path}" for trace in test))
+
+
+def tests_text(grouped: Sequence[Sequence[BallbarTrace]]) -> str:
+    """Every test's circle and traces, numbered: ``test 1: R 100 mm about ...; test 2: ...``."""
+    return "; ".join(f"test {number}: {test_text(test)}" for number, test in enumerate(grouped, 1))
+
+
 def arc_text(trace: BallbarTrace) -> str:
     """``220 deg from -20 to 200 deg`` or ``the whole circle``."""
     start, span = trace.arc

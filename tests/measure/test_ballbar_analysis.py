@@ -9,10 +9,12 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings, strategies as st
 
 from support import SAMPLES
 from postproc.measure.ballbar_analysis import circular_deviation, circular_test, diagnose, predict
@@ -475,3 +477,59 @@ def test_one_negative_backlash_is_a_warning_not_a_refusal(tmp_path, run):
     result = run("compensate", HEMISHELL, "--plugin", "parametric", *(a for p in paths for a in ("--ballbar", p)))
     assert result.exit_code == 0
     assert "backlash X is negative (-3.00 um): the control's backlash compensation may be set too high" in result.stderr
+
+
+# -- a ccw and a cw trace pair only when they are of one test -------------------------------------
+
+PAIRING = ("error-map", "parametric", "effective-angle", "ballbar-inverse", "iterative")
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(field=st.sampled_from(["radius_mm", "center_x_mm", "center_z_mm"]),
+       shift=st.sampled_from([-150.0, -0.5, 0.001, 2.0, 200.0]))
+def test_a_ccw_and_a_cw_trace_of_two_tests_are_never_paired(tmp_path_factory, run, field, shift):
+    """Another radius or centre in the cw trace's header makes it another test: every compensator
+    that pairs the directions refuses naming both files, and ``postproc ballbar``'s diagnosis too
+    (it would read squareness and servo mismatch off two circles' set-ups)."""
+    folder = tmp_path_factory.mktemp("mixed")
+    angles = np.arange(0.0, 360.0, 1.0)
+    header = {"center_x_mm": 0.0, "center_z_mm": 0.0}
+    ccw = write_trace(folder / "ccw.csv", "ccw", analytic_machine(angles, "ccw"), angles, **header)
+    other = dict(header)
+    if field == "radius_mm":
+        text_radius = RADIUS + abs(shift)
+    else:
+        other[field] += shift
+        text_radius = RADIUS
+    cw = write_trace(folder / "cw.csv", "cw", analytic_machine(angles, "cw"), angles, **other)
+    if text_radius != RADIUS:
+        Path(cw).write_text(Path(cw).read_text().replace(f"# radius_mm = {RADIUS}\n", f"# radius_mm = {text_radius}\n"))
+    for plugin in PAIRING:
+        result = run("compensate", HEMISHELL, "--plugin", plugin, "--ballbar", ccw, "--ballbar", cw)
+        assert (result.exit_code, result.stdout) == (3, ""), plugin
+        assert "different tests" in result.stderr or "trace of each test" in result.stderr, plugin
+        assert f"ccw {ccw}" in result.stderr and f"cw {cw}" in result.stderr, plugin
+        assert result.stderr.count("error:") == 1, plugin
+    report = invoke(ccw, cw)
+    assert (report.exit_code, report.stdout) == (3, "")
+    assert "the ccw and the cw traces are of different tests" in report.stderr
+    assert f"ccw {ccw}" in report.stderr and f"cw {cw}" in report.stderr
+    assert "--no-diagnosis" in report.stderr
+    alone = invoke(ccw, cw, "--no-diagnosis")  # the ISO figures of each test, stated as two tests
+    assert (alone.exit_code, alone.stderr) == (0, "")
+    assert "ballbar test 1:" in alone.stdout and "ballbar test 2:" in alone.stdout
+
+
+def test_a_test_with_one_direction_beside_a_paired_one_is_refused_by_what_pairs_each_test(tmp_path, run):
+    """Parametric fits one model to every test: a one-direction test beside a paired one adds to it.
+    error-map and effective-angle pair each test's runs: the lone test is refused, named."""
+    angles = np.arange(0.0, 360.0, 1.0)
+    paths = [write_trace(tmp_path / f"{d}.csv", d, analytic_machine(angles, d), angles) for d in ("ccw", "cw")]
+    lone = write_trace(tmp_path / "far-ccw.csv", "ccw", analytic_machine(angles, "ccw"), angles, center_z_mm=-150.0)
+    given = [a for p in (*paths, lone) for a in ("--ballbar", p)]
+    for plugin in ("error-map", "effective-angle"):
+        result = run("compensate", HEMISHELL, "--plugin", plugin, *given)
+        assert (result.exit_code, result.stdout) == (3, ""), plugin
+        assert "R 100 mm about x 0, z -150 mm has no cw trace" in result.stderr, plugin
+        assert result.stderr.startswith(f"{lone}: error: {plugin} needs a ccw (G03) and a cw (G02) trace of each test")
+    assert invoke(*paths, lone).exit_code == 0

@@ -24,7 +24,6 @@ least 90 deg of arc. Every reader's traces are held to it (:func:`check_evidence
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -251,9 +250,9 @@ def pair(traces: list[BallbarTrace]) -> tuple[BallbarTrace, BallbarTrace]:
     if set(by_direction) != {"ccw", "cw"}:
         raise MeasurementError("the two traces must be one ccw (G03) and one cw (G02) run", Location(traces[1].path))
     ccw, cw = by_direction["ccw"], by_direction["cw"]
-    if not math.isclose(ccw.radius, cw.radius, rel_tol=1e-9, abs_tol=1e-9) or ccw.centre != cw.centre:
+    if ballbar_fit.mount_key(ccw) != ballbar_fit.mount_key(cw):
         raise MeasurementError(
-            f"the traces are of different tests: radius {ccw.radius:g}/{cw.radius:g} mm, centre {ccw.centre}/{cw.centre}",
-            Location(cw.path),
-        )
+            f"the ccw and the cw trace are of different tests (a test is one radius and one centre): "
+            f"{ballbar_fit.tests_text([[ccw], [cw]])}; give the traces of one test, or correct the radius or "
+            "centre in a file's header", Location(cw.path))
     return ccw, cw
