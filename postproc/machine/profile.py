@@ -9,6 +9,7 @@ comes from here, so a shop describes its lathe once.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -54,6 +55,10 @@ class MachineProfile:
     output_decimals_inch: int = 4  #: decimals written for inch values
     spindle_speed_fluctuation: bool = False
     extra: dict[str, Any] = field(default_factory=dict, compare=False)
+    #: the file the profile was read from and the SHA-256 of its bytes ("" for the embedded
+    #: default): what identifies a profile, whose ``name`` may be left at the default's
+    source: str = field(default="", compare=False)
+    source_sha256: str = field(default="", compare=False)
 
     def increment(self, inch: bool) -> float:
         """Least input increment in program units."""
@@ -82,7 +87,9 @@ DEFAULT = MachineProfile()
 
 MAX_BYTES = 1024 * 1024  #: a machine profile is a page of text
 
-_FIELDS = {f.name: f for f in dataclasses.fields(MachineProfile) if f.name != "extra"}
+#: the fields that are not keys of a profile file: what it keeps aside, and where it was read from
+NOT_KEYS = ("extra", "source", "source_sha256")
+_FIELDS = {f.name: f for f in dataclasses.fields(MachineProfile) if f.name not in NOT_KEYS}
 
 
 def load(path: str) -> MachineProfile:
@@ -90,7 +97,8 @@ def load(path: str) -> MachineProfile:
     from ..files import inputs
 
     data, text = inputs.read_toml(path, MAX_BYTES, OptionError, "a machine profile")
-    return from_mapping(data, path, text)
+    profile = from_mapping(data, path, text)
+    return dataclasses.replace(profile, source=path, source_sha256=hashlib.sha256(text.encode("utf-8")).hexdigest())
 
 
 def from_mapping(data: dict[str, Any], origin: str = "<profile>", text: str | None = None) -> MachineProfile:
