@@ -111,7 +111,7 @@ class ErrorMap(Compensator):
         self.fit_figures = {trace.path: figures(result.residuals[samples.of_trace(i) & result.used]).as_dict()
                             for i, trace in enumerate(ordered)}
         self.fit_figures["all"] = figures(result.residuals[result.used]).as_dict()
-        self._hold(ordered)
+        self._hold(ordered, samples, result.residuals)
 
     def _probe(self, probes: Sequence[ProbeFile]) -> None:
         """The CMM's touches, datum-checked; placed on the program when it is surveyed."""
@@ -127,8 +127,9 @@ class ErrorMap(Compensator):
                                    "rotation; 3 at least", Location(self.probe.path))
         self.notes = check_datum(self.probe, self.context.force, self.context.reporter)
 
-    def _hold(self, traces) -> None:
-        """Refuse a fit whose backlash, servo mismatch or map (inside its support) is not determined."""
+    def _hold(self, traces, samples: ballbar_fit.Samples, residuals: np.ndarray) -> None:
+        """Refuse a fit whose backlash, servo mismatch or map (inside its support) is not determined,
+        naming a spike in a trace when there is one (it is then the cause)."""
         limit = self.settings["max-uncertainty"]
         vague = [f"{ballbar_fit.label(name)} +-{3.0 * e.sigma * (0.5 if name.startswith('backlash') else 1.0) * 1000:.2f} um"
                  for name, e in self.parameters.items()
@@ -137,6 +138,10 @@ class ErrorMap(Compensator):
         if 3.0 * worst > limit:
             vague.append(f"the map +-{3.0 * worst * 1000:.2f} um at x {where[0]:.1f}, z {where[1]:.1f} mm")
         if vague:
+            found = ballbar_fit.spike(samples, residuals)
+            if found is not None:
+                raise MeasurementError(f"{self.name}: the map is not determined, and the likely cause is a spike: "
+                                       f"{found[0]}", found[1])
             raise MeasurementError(
                 f"{self.name}: on {ballbar_fit.arcs_text(traces)}, {'; '.join(vague)} (3 sigma) "
                 f"{'is' if len(vague) == 1 else 'are'} above {limit * 1000:g} um: measure both directions, longer arcs, "

@@ -119,6 +119,7 @@ class Diagnosis:
     centres: tuple[tuple[Estimate, Estimate], ...] = ()  #: every test's set-up centre, in test order
     arcs: str = ""  #: the arcs fitted, for messages
     paths: tuple[str, ...] = ()  #: the traces fitted, in the order given
+    spike: str = ""  #: the largest spike in the traces (ballbar_fit.spike), said; "" when none
 
     @property
     def servo_lag_ms(self) -> Estimate | None:
@@ -237,6 +238,7 @@ def diagnose(traces: Sequence[BallbarTrace], limit: float = ballbar_fit.EFFECT_L
     names = model_names(ordered)
     result = ballbar_fit.fit(samples, ballbar_fit.machine_errors(samples, names))
     ballbar_fit.require(result, limit=limit)
+    spike = ballbar_fit.spike(samples, result.residuals)
     fit = result.estimates()
     feeds = {t.feed for t in ordered}
     centres = tuple(result.centre(mount) for mount in range(len(samples.groups)))
@@ -246,7 +248,7 @@ def diagnose(traces: Sequence[BallbarTrace], limit: float = ballbar_fit.EFFECT_L
         backlash_z=fit["backlash_z"], squareness=fit.get("squareness"), servo_mismatch=fit.get("servo_mismatch"),
         apparent_squareness=fit.get("apparent_squareness"), centre_offset=centres[0],
         residual=figures(result.residuals), feed=feeds.pop() if len(feeds) == 1 else None, centres=centres,
-        arcs=arcs_text(ordered), paths=tuple(t.path for t in traces))
+        arcs=arcs_text(ordered), paths=tuple(t.path for t in traces), spike=spike[0] if spike else "")
 
 
 def centred(traces: Sequence[BallbarTrace], diagnosis: Diagnosis) -> list[BallbarTrace]:
@@ -285,6 +287,22 @@ def screen(traces: Sequence[BallbarTrace], reporter, force: bool, who: str = "")
     return diagnosis
 
 
+def screen_spikes(traces: Sequence[BallbarTrace], reporter, force: bool, who: str,
+                  result: ballbar_fit.JointFit | None = None) -> None:
+    """For a compensator that cuts the traces themselves into the program (ballbar-inverse,
+    iterative): a spike in one (ballbar_fit.spike) refuses naming its file, line and size,
+    unless ``force``; ``result``, the traces' joint fit when the caller has made it."""
+    if result is None:
+        result = jointly_centred(traces)[1]
+    found = ballbar_fit.spike(result.samples, result.residuals)
+    if found is None:
+        return
+    text, where = found
+    if not force:
+        raise MeasurementError(f"{who}: {text}; --force uses the traces as they are", where)
+    reporter.warn(f"{who}: {text} (--force: used as they are)", where)
+
+
 def check_saved(compensator: str, parameters: dict[str, Estimate]) -> None:
     """Hold a saved model's parameters (``scaling_*``, ``backlash_*``: value and 1-sigma, mm
     and mm/mm) to what its traces were held to: finite, a 1-sigma not negative, a scaling within
@@ -305,13 +323,15 @@ def check_saved(compensator: str, parameters: dict[str, Estimate]) -> None:
 def plausibility(diagnosis: Diagnosis) -> tuple[list[str], list[str]]:
     """Results no machine gives, with their likely cause: (problems, warnings).
 
-    Problems make a compensator refuse (unless forced): both backlashes clearly negative (the
+    Problems make a compensator refuse (unless forced): a spike in a trace (one or two samples
+    far off the fit, ballbar_fit.spike: a compensator would cut it into the part), both
+    backlashes clearly negative (the
     ccw and cw labels swapped: every direction-dependent term flips, and the model would
     double the error), a scaling beyond 500 ppm (a radius that is not the bar's length, or a
     unit), a backlash beyond 50 um (a unit, or a machine to repair first). Warnings: one
     backlash clearly negative (a control's backlash compensation set too high).
     """
-    problems, warnings = [], []
+    problems, warnings = [diagnosis.spike] if diagnosis.spike else [], []
     lag = diagnosis.servo_lag_ms
     servo = ""
     if lag is not None:

@@ -8,6 +8,7 @@ direction and read through a bar whose pivot is off the circle's centre, in both
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -533,3 +534,76 @@ def test_a_test_with_one_direction_beside_a_paired_one_is_refused_by_what_pairs_
         assert "R 100 mm about x 0, z -150 mm has no cw trace" in result.stderr, plugin
         assert result.stderr.startswith(f"{lone}: error: {plugin} needs a ccw (G03) and a cw (G02) trace of each test")
     assert invoke(*paths, lone).exit_code == 0
+
+
+# -- a spike in a trace is named, never blamed on the arc ---------------------------------------
+
+
+def noisy_test(folder, raw: bool, seed: int) -> dict[str, str]:
+    """A ccw and a cw whole-circle test of ``analytic_machine`` with 0.3 um of noise, 0.5 deg samples
+    (raw: six readings each, in time order from 0 deg)."""
+    rng = np.random.default_rng(seed)
+    paths = {}
+    for d in ("ccw", "cw"):
+        if raw:
+            sign = 1.0 if d == "cw" else -1.0
+            angles = sign * np.arange(4320) * 360.0 / 4320
+            paths[d] = write_trace(folder / f"{d}.csv", d, analytic_machine(angles, d) + rng.normal(0, 3e-4, 4320),
+                                   start=0.0)
+        else:
+            angles = np.arange(0.0, 360.0, 0.5)
+            paths[d] = write_trace(folder / f"{d}.csv", d, analytic_machine(angles, d) + rng.normal(0, 3e-4, 720),
+                                   angles)
+    return paths
+
+
+def spiked(path: str, row: int, size: float, count: int = 1) -> int:
+    """Add ``size`` mm to ``count`` readings of a trace file from the ``row``-th; returns its line number."""
+    lines = Path(path).read_text().splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith(("angle_deg", "deviation_mm"))) + 1
+    for at in range(first + row, first + row + count):
+        cells = lines[at].split(",")
+        cells[-1] = repr(float(cells[-1]) + size)
+        lines[at] = ",".join(cells)
+    Path(path).write_text("\n".join(lines) + "\n")
+    return first + row + 1
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(raw=st.booleans(), quadrant=st.integers(0, 3), offset=st.floats(10.0, 80.0),
+       size=st.sampled_from([-0.9, -0.05, 0.012, 0.3]), seed=st.integers(0, 2**16))
+def test_a_spike_is_named_with_its_file_line_and_size(tmp_path_factory, run, raw, quadrant, offset, size, seed):
+    """One reading (raw: one group of six) off by ``size`` anywhere clear of a reversal: the
+    diagnosis names it, never an arc too short, and every compensator refuses for it."""
+    folder = tmp_path_factory.mktemp("spike")
+    paths = noisy_test(folder, raw, seed)
+    theta = 90.0 * quadrant + offset  # the ccw run goes from 0 deg downwards: sample k at -k/2 deg
+    sample = int(round((360.0 - theta) * 2)) % 720
+    line = spiked(paths["ccw"], sample * 6 if raw else sample, size, 6 if raw else 1)  # raw: a group's first line
+    said = f"{paths['ccw']} {'line' if not raw else '(the readings from line'} {line}"
+    report = invoke(paths["ccw"], paths["cw"])
+    assert report.exit_code in (0, 3)
+    if report.exit_code == 3:
+        assert report.stdout == ""
+        assert report.stderr.startswith(f"{paths['ccw']}:{line}: error: the fit is not determined, and the "
+                                        f"likely cause is a spike: {said}")
+        assert "measure a longer arc" not in report.stderr
+    else:
+        assert said in report.stderr and "warning:" in report.stderr
+    told = float(re.search(r"a spike of ([+-][0-9.]+) um", report.stderr).group(1))
+    assert told == pytest.approx(size * 1000, rel=0.1, abs=3.0)
+    for plugin in ("parametric", "error-map", "ballbar-inverse"):
+        result = run("compensate", HEMISHELL, "--plugin", plugin, "--ballbar", paths["ccw"], "--ballbar", paths["cw"])
+        assert (result.exit_code, result.stdout) == (3, ""), plugin
+        assert said in result.stderr and "a spike of" in result.stderr, plugin
+        assert result.stderr.count("error:") == 1, plugin
+
+
+@pytest.mark.parametrize("raw", [False, True])
+def test_a_trace_without_a_spike_is_not_said_to_have_one(tmp_path, raw):
+    """The machine's own steps at the reversals (backlash, raw groups straddling it) are not spikes."""
+    paths = noisy_test(tmp_path, raw, 7)
+    for given_paths in ([paths["ccw"], paths["cw"]], [str(p) for p in SAMPLE.values()],
+                        [str(SAMPLES / "ballbar" / f"v40r-100-{d}-raw.csv") for d in ("ccw", "cw")]):
+        report = invoke(*given_paths)
+        assert (report.exit_code, report.stderr) == (0, ""), report.stderr
