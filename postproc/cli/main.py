@@ -337,7 +337,7 @@ def _catch(ctx: click.Context, signum: int) -> None:
 @MODE()
 @OPTION()
 @click.option("--region", "regions", multiple=True, metavar="N100-N200|L10-L50|T01",
-              help="Compensate only these blocks (several: their union).")
+              help="Compensate only these blocks: N100-N200, L10-L50 (L10: line 10 alone) or a tool; several: their union.")
 @click.option("--max-correction", type=FINITE, metavar="MM", help="Refuse corrections larger than this.")
 @click.option("--force", is_flag=True, help="Compensate a program compensated before; use a failed datum check.")
 @click.option("--keep-unplannable", is_flag=True,
