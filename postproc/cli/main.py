@@ -19,8 +19,8 @@ from ..compensate import progress
 from ..machine import profile as profiles
 from .common import (BALLBAR, CALIBRATION, FINITE, LOG, MACHINE, MODE, MODEL, OPTION, PLUGIN, PROBE, PROJECT,
                      TOLERANCE, examples, guard)
-from ..diagnostics import (EXIT_INTERNAL, EXIT_WOULD_CHANGE, Location, OutputError, PostprocError, Reporter, Stopped,
-                           UsageError, format_message)
+from ..diagnostics import (EXIT_INTERNAL, EXIT_WOULD_CHANGE, Location, OptionError, OutputError, PostprocError,
+                           Reporter, Stopped, UsageError, format_message)
 from ..files.output import STDOUT, Spool
 from ..syntax.source import Source
 
@@ -685,7 +685,12 @@ def profile_init(file, name):
     """Write a commented starter machine profile to FILE (never over an existing file)."""
     from ..machine.profile import starter
 
-    text = starter(name or os.path.splitext(os.path.basename(file))[0] or "lathe")
+    if name is not None and not name.strip():
+        raise OptionError(f"--name {name!r}: a profile's name cannot be blank")
+    try:
+        text = starter(name or os.path.splitext(os.path.basename(file))[0] or "lathe")
+    except ValueError as exc:  # a byte of the command line that is not UTF-8
+        raise OptionError(f"the profile's name (--name, else the file's name): {exc}; give --name as text") from None
     if file == "-":
         click.echo(text, nl=False)
         return

@@ -195,7 +195,7 @@ def _is_number(value: Any) -> bool:
 
 def to_toml(profile: MachineProfile) -> str:
     """The profile as TOML that :func:`load` reads back (unset limits are left out)."""
-    lines = [f"# machine profile {profile.name!r}"]
+    lines = [f"# machine profile {toml_string(profile.name)}"]
     for name in _FIELDS:
         value = getattr(profile, name)
         if value is not None:
@@ -203,11 +203,30 @@ def to_toml(profile: MachineProfile) -> str:
     return "\n".join(lines) + "\n"
 
 
+_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
+def toml_string(text: str) -> str:
+    """``text`` as a TOML basic string that reads back as ``text``: the quote, the backslash and
+    every control character (U+0000 to U+001F, U+007F, which TOML forbids as they are) escaped.
+
+    :raises ValueError: ``text`` holds a lone surrogate (an undecodable byte of a command line),
+        which no TOML (UTF-8) file can hold.
+    """
+    parts = []
+    for char in text:
+        code = ord(char)
+        if 0xD800 <= code <= 0xDFFF:
+            raise ValueError(f"{text!r} holds a byte that is not UTF-8 text")
+        parts.append(_ESCAPES.get(char) or (f"\\u{code:04X}" if code < 0x20 or code == 0x7F else char))
+    return '"' + "".join(parts) + '"'
+
+
 def _toml_value(value: Any) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return toml_string(value)
     if isinstance(value, tuple):
         return f"[{value[0]!r}, {value[1]!r}]"
     return repr(value)
