@@ -183,6 +183,15 @@ class _Tee:
                                                             "messages go to stderr only", None) + "\n")
         return self.stream.write(text)
 
+    def write_log(self, text: str) -> None:
+        """Into the log alone: what ``--quiet`` keeps off the terminal (diagnostics.say)."""
+        if self.log is not None:
+            try:
+                self.log.write(text)
+                self.log.flush()
+            except OSError:
+                self.detach_log()
+
     def detach_log(self) -> None:
         """Stop copying to the log (it turned out to be one of the run's inputs, or cannot be written)."""
         log, self.log = self.log, None
