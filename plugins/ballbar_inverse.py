@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from postproc.measure.ballbar_analysis import backlash_signs, jointly_centred
+from postproc.measure.ballbar_analysis import backlash_signs, jointly_centred, screen_spikes
 from postproc.compensator import Measurements
 from postproc.diagnostics import Location, MeasurementError
 from postproc.hookspecs import hookimpl
@@ -52,11 +52,14 @@ class BallbarInverse(TraceInversion):
                                    Location(traces[2].path))
         if len(traces) == 2:
             ccw, cw = pair(traces)
+            result = None
             if not (ccw.centered or cw.centered):
                 (ccw, cw), result = jointly_centred([ccw, cw])
                 self._check_labels(result)
+            screen_spikes([ccw, cw], self.context.reporter, self.context.force, self.name, result)
             self.traces = {"ccw": ccw, "cw": cw}
         else:
+            screen_spikes(traces, self.context.reporter, self.context.force, self.name)
             self.traces = {traces[0].direction: traces[0]}
         self._warned = False
 

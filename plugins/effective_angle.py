@@ -8,7 +8,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from postproc.measure import ballbar_fit
-from postproc.measure.ballbar_analysis import centred, tests
+from postproc.measure.ballbar_analysis import centred, paired, tests
 from postproc.compensator import Measurements, Piece
 from postproc.diagnostics import Location, MeasurementError, ModelError
 from postproc.corrections.error_functions import ErrorFunctions
@@ -140,6 +140,7 @@ class EffectiveAngle(ErrorFunctions):
     name = "effective-angle"
 
     def fit(self, measurements: Measurements) -> None:
+        paired(list(measurements.ballbar), self.name)
         traces = self._traces(measurements)
         limit = self.settings["max-uncertainty"]
         for index, centre in enumerate(self.diagnosis.centres):
@@ -152,9 +153,8 @@ class EffectiveAngle(ErrorFunctions):
         per_test = []
         for test in tests(centred(traces, self.diagnosis)):
             if [t.direction for t in test] != ["ccw", "cw"]:
-                raise MeasurementError(f"{self.name} needs one ccw and one cw trace of each test; the circle of R "
-                                       f"{test[0].radius:g} mm about ({test[0].centre[0]:g}, {test[0].centre[1]:g}) has "
-                                       f"{' and '.join(t.direction + ' ' + t.path for t in test)}", Location(test[0].path))
+                raise MeasurementError(f"{self.name} takes one ccw and one cw trace of each test, no repeats; "
+                                       f"{ballbar_fit.test_text(test)}", Location(test[0].path))
             per_test.append((test[0].centre, tables(*test)))
         self.tables = merged(per_test, self.centre)
         for name, (offsets, _) in self.tables.items():

@@ -7,7 +7,7 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 
 from postproc.measure import ballbar_fit, error_map
-from postproc.measure.ballbar_analysis import Estimate, check_saved, screen, tests
+from postproc.measure.ballbar_analysis import Estimate, check_saved, paired, screen
 from postproc.compensator import Compensator, Measurements, Option, Piece
 from postproc.diagnostics import Location, MeasurementError, ModelError, SafetyError
 from postproc.measure.figures import figures
@@ -91,10 +91,7 @@ class ErrorMap(Compensator):
 
     def fit(self, measurements: Measurements) -> None:
         traces = list(measurements.ballbar)
-        if len({t.direction for t in traces}) < 2:
-            raise MeasurementError(f"{self.name} needs a ccw (G03) and a cw (G02) trace of each test; all "
-                                   f"{len(traces)} are {traces[0].direction}", Location(traces[-1].path))
-        ordered = [trace for test in tests(traces) for trace in test]
+        ordered = [trace for test in paired(traces, self.name) for trace in test]
         screen(traces, self.context.reporter, self.context.force, self.name)
         samples = ballbar_fit.Samples.of(ordered)
         positions = np.column_stack([samples.x, samples.z])
@@ -114,7 +111,7 @@ class ErrorMap(Compensator):
         self.fit_figures = {trace.path: figures(result.residuals[samples.of_trace(i) & result.used]).as_dict()
                             for i, trace in enumerate(ordered)}
         self.fit_figures["all"] = figures(result.residuals[result.used]).as_dict()
-        self._hold(ordered)
+        self._hold(ordered, samples, result.residuals)
 
     def _probe(self, probes: Sequence[ProbeFile]) -> None:
         """The CMM's touches, datum-checked; placed on the program when it is surveyed."""
@@ -130,8 +127,9 @@ class ErrorMap(Compensator):
                                    "rotation; 3 at least", Location(self.probe.path))
         self.notes = check_datum(self.probe, self.context.force, self.context.reporter)
 
-    def _hold(self, traces) -> None:
-        """Refuse a fit whose backlash, servo mismatch or map (inside its support) is not determined."""
+    def _hold(self, traces, samples: ballbar_fit.Samples, residuals: np.ndarray) -> None:
+        """Refuse a fit whose backlash, servo mismatch or map (inside its support) is not determined,
+        naming a spike in a trace when there is one (it is then the cause)."""
         limit = self.settings["max-uncertainty"]
         vague = [f"{ballbar_fit.label(name)} +-{3.0 * e.sigma * (0.5 if name.startswith('backlash') else 1.0) * 1000:.2f} um"
                  for name, e in self.parameters.items()
@@ -140,6 +138,10 @@ class ErrorMap(Compensator):
         if 3.0 * worst > limit:
             vague.append(f"the map +-{3.0 * worst * 1000:.2f} um at x {where[0]:.1f}, z {where[1]:.1f} mm")
         if vague:
+            found = ballbar_fit.spike(samples, residuals)
+            if found is not None:
+                raise MeasurementError(f"{self.name}: the map is not determined, and the likely cause is a spike: "
+                                       f"{found[0]}", found[1])
             raise MeasurementError(
                 f"{self.name}: on {ballbar_fit.arcs_text(traces)}, {'; '.join(vague)} (3 sigma) "
                 f"{'is' if len(vague) == 1 else 'are'} above {limit * 1000:g} um: measure both directions, longer arcs, "

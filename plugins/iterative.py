@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from postproc.compensator import Measurements, Option
-from postproc.diagnostics import Location, MeasurementError
+from postproc.measure.ballbar_analysis import one_test, screen_spikes
 from postproc.hookspecs import hookimpl
 from postproc.measure.readers.ballbar import BallbarTrace
 from postproc.corrections.trace_inversion import Summed, TraceInversion
@@ -46,10 +46,9 @@ class Iterative(TraceInversion):
         by_direction: dict[str, list[BallbarTrace]] = {}
         for trace in measurements.ballbar:
             by_direction.setdefault(trace.direction, []).append(trace)
-        radii = {round(trace.radius, 9) for trace in measurements.ballbar}
-        if len(radii) > 1:
-            raise MeasurementError(f"{self.name}: the iterations' traces are of different radii {sorted(radii)}",
-                                   Location(measurements.ballbar[-1].path))
+        one_test(list(measurements.ballbar), self.name)
+        for trace in measurements.ballbar:
+            screen_spikes([trace], self.context.reporter, self.context.force, self.name)
         self._sequences = by_direction
         threshold = self.settings["selective"]
         self.traces = {direction: Summed(traces, threshold) for direction, traces in by_direction.items()}

@@ -259,16 +259,28 @@ class Reporter:
         warning = Diagnostic(message, location)
         if count <= self.limit:
             self.warnings.append(warning)
-            if self.stream is not None and not self.silent:
-                print(warning, file=self.stream)
+            if self.stream is not None:
+                say(str(warning), self.stream)
 
     def close(self) -> None:
         """Say how many repeated warnings were not shown."""
-        if self.stream is None or self.silent:
+        if self.stream is None:
             return
         for message, count in self._seen.items():
             if count > self.limit:
-                print(f"postproc: warning: {count - self.limit} more like: {message}", file=self.stream)
+                say(f"postproc: warning: {count - self.limit} more like: {message}", self.stream)
+
+
+def say(text: str, stream: TextIO) -> None:
+    """A line that is not an error (a warning, a summary) on ``stream``; with ``--quiet``
+    (:attr:`Reporter.silent`) only into the ``--log`` file behind it, if there is one: quiet
+    keeps the terminal to errors, the log still gets what it would get."""
+    if not Reporter.silent:
+        print(text, file=stream)
+        return
+    log_only = getattr(stream, "write_log", None)
+    if log_only is not None:
+        log_only(text + "\n")
 
 
 def stderr_reporter() -> Reporter:

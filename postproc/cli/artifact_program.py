@@ -13,6 +13,7 @@ import sys
 
 import click
 
+from ..compensate import progress
 from ..onmachine.artifact_cycle import NAME, plan_round
 from ..diagnostics import Location, OptionError, Reporter
 from ..files.output import write_atomically
@@ -58,6 +59,6 @@ def command(center_x, center_z, artifact_radius, stylus_radius, clearance, overt
         reporter.warn("no --tool: the probing program selects no tool; index the probe before it runs", Location(NAME))
     write_atomically(output, planned.text.encode())
     reporter.close()
-    click.echo(f"artifact: probing program O{program_number:04d}: the pole, +X and -X of a {artifact_radius:g} mm "
-               f"ball at x {center_x:g} z {center_z:g}; read its printout with 'postproc probe-import', then "
-               "'postproc artifact-find'", err=True)
+    progress.inform(f"artifact: probing program O{program_number:04d}: the pole, +X and -X of a {artifact_radius:g} "
+                    f"mm ball at x {center_x:g} z {center_z:g}; read its printout with 'postproc probe-import', then "
+                    "'postproc artifact-find'")

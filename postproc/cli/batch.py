@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 from ..compensate import progress
 from ..api import Pipeline
-from ..diagnostics import EXIT_INTERNAL, EXIT_OK, PostprocError
+from ..diagnostics import EXIT_INTERNAL, EXIT_OK, PostprocError, say
 
 _pipeline: Pipeline | None = None
 
@@ -85,14 +85,14 @@ def run(jobs: list[tuple[str, str]], pipeline: Pipeline, workers: int = 1) -> in
 
 
 def _tell(outcome: Outcome) -> None:
-    """A program's warnings, its error and its summary line; with ``--quiet``, its error alone."""
-    if progress.quiet():
-        if outcome.code != EXIT_OK:
-            print(outcome.messages[-1], file=sys.stderr)
-        return
-    for message in outcome.messages:
-        print(message, file=sys.stderr)
-    print(outcome.line, file=sys.stderr)
+    """A program's warnings, its error and its summary line; with ``--quiet``, its error alone
+    (and the rest in the ``--log``)."""
+    failed = outcome.code != EXIT_OK
+    for message in outcome.messages[:-1] if failed else outcome.messages:
+        say(message, sys.stderr)
+    if failed:
+        print(outcome.messages[-1], file=sys.stderr)
+    say(outcome.line, sys.stderr)
 
 
 def _worker() -> None:

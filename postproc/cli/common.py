@@ -96,7 +96,9 @@ def complete_compensators(ctx, param, incomplete: str):
 
 
 def complete_options(ctx, param, incomplete: str):
-    """Shell completion of ``--option``: ``PLUGIN.KEY=`` for every key an installed compensator declares."""
+    """Shell completion of ``--option``: ``PLUGIN.KEY=`` for every key the compensators selected
+    so far (``--plugin``) declare, and ``KEY=`` alone for a key only one of them takes; with no
+    ``--plugin`` yet, every installed compensator's keys."""
     from click.shell_completion import CompletionItem
 
     from ..compensate.registry import compensators
@@ -105,7 +107,15 @@ def complete_options(ctx, param, incomplete: str):
         found = compensators()
     except Exception:  # a broken plugin must not break the shell: it is named when a command runs
         return []
-    keys = [(f"{name}.{option.key}=", option.help) for name, item in sorted(found.items()) for option in item.cls.options]
+    selected = list(dict.fromkeys((ctx.params.get("plugins") if ctx is not None else None) or ()))
+    chosen = [(name, found[name]) for name in selected if name in found] if selected else sorted(found.items())
+    keys = [(f"{name}.{option.key}=", option.help) for name, item in chosen for option in item.cls.options]
+    if selected:
+        owners: dict[str, list[str]] = {}
+        for name, item in chosen:
+            for option in item.cls.options:
+                owners.setdefault(option.key, []).append(option.help)
+        keys += [(f"{key}=", helps[0]) for key, helps in owners.items() if len(helps) == 1]
     return [CompletionItem(key, help=text) for key, text in keys if key.startswith(incomplete)]
 
 

@@ -19,8 +19,8 @@ from ..compensate import progress
 from ..machine import profile as profiles
 from .common import (BALLBAR, CALIBRATION, FINITE, LOG, MACHINE, MODE, MODEL, OPTION, PLUGIN, PROBE, PROJECT,
                      TOLERANCE, examples, guard)
-from ..diagnostics import (EXIT_INTERNAL, EXIT_WOULD_CHANGE, Location, OutputError, PostprocError, Reporter, Stopped,
-                           UsageError, format_message)
+from ..diagnostics import (EXIT_INTERNAL, EXIT_WOULD_CHANGE, Location, OptionError, OutputError, PostprocError,
+                           Reporter, Stopped, UsageError, format_message)
 from ..files.output import STDOUT, Spool
 from ..syntax.source import Source
 
@@ -183,6 +183,15 @@ class _Tee:
                                                             "messages go to stderr only", None) + "\n")
         return self.stream.write(text)
 
+    def write_log(self, text: str) -> None:
+        """Into the log alone: what ``--quiet`` keeps off the terminal (diagnostics.say)."""
+        if self.log is not None:
+            try:
+                self.log.write(text)
+                self.log.flush()
+            except OSError:
+                self.detach_log()
+
     def detach_log(self) -> None:
         """Stop copying to the log (it turned out to be one of the run's inputs, or cannot be written)."""
         log, self.log = self.log, None
@@ -337,7 +346,7 @@ def _catch(ctx: click.Context, signum: int) -> None:
 @MODE()
 @OPTION()
 @click.option("--region", "regions", multiple=True, metavar="N100-N200|L10-L50|T01",
-              help="Compensate only these blocks (several: their union).")
+              help="Compensate only these blocks: N100-N200, L10-L50 (L10: line 10 alone) or a tool; several: their union.")
 @click.option("--max-correction", type=FINITE, metavar="MM", help="Refuse corrections larger than this.")
 @click.option("--force", is_flag=True, help="Compensate a program compensated before; use a failed datum check.")
 @click.option("--keep-unplannable", is_flag=True,
@@ -685,7 +694,12 @@ def profile_init(file, name):
     """Write a commented starter machine profile to FILE (never over an existing file)."""
     from ..machine.profile import starter
 
-    text = starter(name or os.path.splitext(os.path.basename(file))[0] or "lathe")
+    if name is not None and not name.strip():
+        raise OptionError(f"--name {name!r}: a profile's name cannot be blank")
+    try:
+        text = starter(name or os.path.splitext(os.path.basename(file))[0] or "lathe")
+    except ValueError as exc:  # a byte of the command line that is not UTF-8
+        raise OptionError(f"the profile's name (--name, else the file's name): {exc}; give --name as text") from None
     if file == "-":
         click.echo(text, nl=False)
         return

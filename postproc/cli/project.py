@@ -98,12 +98,12 @@ def load(path: str | None = None, start: str | None = None) -> Project:
 def _suggestion(name: str) -> str:
     """The project key meant, or the machine profile key (which belongs in the profile)."""
     from ..files.inputs import did_you_mean
-    from ..machine.profile import MachineProfile
+    from ..machine.profile import NOT_KEYS, MachineProfile
 
     meant = did_you_mean(name, KEYS)
     if meant:
         return meant
-    meant = did_you_mean(name, [f for f in MachineProfile.__dataclass_fields__ if f != "extra"])
+    meant = did_you_mean(name, [f for f in MachineProfile.__dataclass_fields__ if f not in NOT_KEYS])
     return f"{meant[:-1]} (a machine profile key: set it in the profile the project names)" if meant else ""
 
 

@@ -16,6 +16,7 @@ read in whatever units the control was left in. The header says what was added w
 
 from __future__ import annotations
 
+import hashlib
 import os
 import re
 import signal
@@ -37,7 +38,7 @@ from ..diagnostics import (InternalError, Location, ModelError, PluginError, Pos
 from ..measure.readers.csvfile import snapshot as measurement_snapshot
 from ..interpret.motion import ARC, LINE, Step
 from ..files.output import Spool
-from ..machine.profile import DEFAULT, MachineProfile
+from ..machine.profile import DEFAULT, MachineProfile, to_toml
 from ..interpret.program import interpret_source
 from .region import Region
 from .request import Request
@@ -294,6 +295,7 @@ class Pipeline:
         tolerance = request.tolerance
         lines.append(f"TOLERANCE {'DEFAULT' if tolerance is None else f'{tolerance:g} MM'} MODE {request.mode}")
         lines.append(f"MACHINE {self.profile.name[:40]} MAX CORRECTION {self.max_correction:g} MM")
+        lines += _profile_lines(self.profile)
         if request.force:
             lines.append("FORCED: COMPENSATED AGAIN OR CHECK OVERRIDDEN")
         lines.append(f"LARGEST CORRECTION {rewriter.largest:.4f} MM")
@@ -308,6 +310,17 @@ class Pipeline:
 
     def report(self) -> list[dict[str, Any]]:
         return [{"plugin": c.name, **c.report()} for c in self.compensators]
+
+
+def _profile_lines(profile: MachineProfile) -> list[str]:
+    """What identifies the machine profile beyond its name, which a profile that sets none shares
+    with the embedded default: its file and the SHA-256 of its bytes; a profile made in a library
+    call, the SHA-256 of its settings as TOML; the embedded default, nothing."""
+    if profile.source:
+        return [f"PROFILE {profile.source.rsplit('/', 1)[-1][:28]} SHA256 {profile.source_sha256[:12]}"]
+    if profile != DEFAULT:
+        return [f"PROFILE SETTINGS SHA256 {hashlib.sha256(to_toml(profile).encode('utf-8')).hexdigest()[:12]}"]
+    return []
 
 
 def _digest(path: str) -> str:

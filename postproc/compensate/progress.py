@@ -15,12 +15,13 @@ exit code see them) but not shown, and the information lines (summaries, "ok") a
 
 from __future__ import annotations
 
+import sys
 from contextlib import contextmanager
 from typing import Iterator
 
 import click
 
-from ..diagnostics import Reporter
+from ..diagnostics import Reporter, say
 
 EVERY = 1024  #: blocks between two updates of a program's progress line
 MIN_BLOCKS = 4000  #: a program shorter than this is done before a progress line would help
@@ -41,9 +42,11 @@ def quiet() -> bool:
 
 
 def inform(text: str) -> None:
-    """An information line on stderr (a summary, "ok"), unless ``--quiet``."""
+    """An information line on stderr (a summary, "ok"); with ``--quiet``, only in the ``--log``."""
     if not Reporter.silent:
         click.echo(text, err=True)
+    else:
+        say(text, sys.stderr)
 
 
 def shown() -> bool:

@@ -2,8 +2,11 @@
 
 A region is a range of sequence numbers (``N100-N200``: from the block labelled N100 to the
 block labelled N200, in program order), a range of source lines (``L10-L50`` or ``10-50``),
-or a tool (``T1``, ``T01``, ``T0101``: moves made while that tool is in the turret). Several
-``--region`` options select the union of their blocks.
+or a tool (``T1``, ``T01``, ``T0101``: moves made while that tool is in the turret). One
+number alone is the range of it alone: ``L10`` (or ``10``) is ``L10-L10``, ``N100`` is
+``N100-N100``. Several ``--region`` options select the union of their blocks. Anything else,
+and a range that can select nothing (line 0, a first line after the last, tool 0, which is no
+tool), is refused (exit 3, a bad option value) naming the forms.
 """
 
 from __future__ import annotations
@@ -14,9 +17,10 @@ from dataclasses import dataclass
 from ..diagnostics import OptionError
 from ..interpret.motion import Move, Step
 
-_LABELS = re.compile(r"^[Nn](\d+)-[Nn](\d+)$")
-_LINES = re.compile(r"^[Ll]?(\d+)-[Ll]?(\d+)$")
+_LABELS = re.compile(r"^[Nn](\d+)(?:-[Nn](\d+))?$")
+_LINES = re.compile(r"^[Ll]?(\d+)(?:-[Ll]?(\d+))?$")
 _TOOL = re.compile(r"^[Tt](\d{1,4})$")
+FORMS = "N100-N200 or N100 (sequence numbers), L10-L50, L10, 10-50 or 10 (source lines), or a tool like T01"
 
 
 @dataclass(frozen=True)
@@ -27,20 +31,26 @@ class Range:
 
 
 def parse(text: str) -> Range:
+    """One ``--region`` value; a malformed one, or one that can select nothing, is an OptionError."""
     spec = text.strip()
     if match := _LABELS.match(spec):
-        first, last = int(match.group(1)), int(match.group(2))
-        return Range("labels", first, last)
+        first = int(match.group(1))
+        return Range("labels", first, int(match.group(2) or first))
     if match := _LINES.match(spec):
-        first, last = int(match.group(1)), int(match.group(2))
+        first = int(match.group(1))
+        last = int(match.group(2) or first)
+        if first == 0:
+            raise OptionError(f"--region {text}: lines are counted from 1")
         if first > last:
-            raise OptionError(f"--region {text}: the first line comes after the last")
+            raise OptionError(f"--region {text}: the first line comes after the last (L{last}-L{first}?)")
         return Range("lines", first, last)
     if match := _TOOL.match(spec):
         digits = match.group(1)
         tool = int(digits[:-2]) if len(digits) > 2 else int(digits)  # T0101: tool 1, offset 01
+        if tool == 0:
+            raise OptionError(f"--region {text}: tool 0 is no tool (T0 cancels the offset); expected a tool like T01")
         return Range("tool", tool, tool)
-    raise OptionError(f"--region {text}: expected N100-N200, L10-L50 (or 10-50) or a tool like T01")
+    raise OptionError(f"--region {text}: expected {FORMS}")
 
 
 class Region:

@@ -681,6 +681,8 @@ def plan(target: Target, limits: Limits, mode: str = AUTO) -> Plan:
 
 
 def _plan(target: Target, limits: Limits, mode: str) -> Plan | None:
+    if isinstance(target.nominal, Arc) and abs(target.nominal.sweep) >= 2.0 * math.pi - 1e-9:
+        return _plan_circle(target, limits, mode)
     straight = _straight(target, limits)
     if straight is not None:
         return straight
@@ -703,6 +705,22 @@ def _plan(target: Target, limits: Limits, mode: str) -> Plan | None:
     if not candidates:
         return None
     return min(candidates, key=lambda p: (len(p.cuts), p.method != "arcs"))
+
+
+def _plan_circle(target: Target, limits: Limits, mode: str) -> Plan | None:
+    """A whole circle in one block (a ballbar test program's): its ends are one point, which no
+    arc or chord between them can follow, so it is planned as its two halves, split at the
+    sample nearest half way, and written as their blocks."""
+    k = int(np.argmin(np.abs(target.t - 0.5)))
+    middle = float(target.t[k])
+    halves = [Target(target.nominal.part(0.0, middle), target.t[: k + 1] / middle, target.d[: k + 1]),
+              Target(target.nominal.part(middle, 1.0), (target.t[k:] - middle) / (1.0 - middle), target.d[k:])]
+    plans = [_plan(half, limits, mode) for half in halves]
+    if any(found is None for found in plans):
+        return None
+    return Plan([cut for found in plans for cut in found.cuts], max(found.deviation for found in plans),
+                plans[0].method if plans[0].method == plans[1].method else "arcs",
+                any(found.widened for found in plans))
 
 
 def _unplannable(target: Target, limits: Limits, mode: str) -> "PlanError":

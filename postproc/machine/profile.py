@@ -9,6 +9,7 @@ comes from here, so a shop describes its lathe once.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -55,6 +56,10 @@ class MachineProfile:
     output_decimals_inch: int = 4  #: decimals written for inch values
     spindle_speed_fluctuation: bool = False
     extra: dict[str, Any] = field(default_factory=dict, compare=False)
+    #: the file the profile was read from and the SHA-256 of its bytes ("" for the embedded
+    #: default): what identifies a profile, whose ``name`` may be left at the default's
+    source: str = field(default="", compare=False)
+    source_sha256: str = field(default="", compare=False)
 
     def increment(self, inch: bool) -> float:
         """Least input increment in program units."""
@@ -88,7 +93,9 @@ DEFAULT = MachineProfile()
 
 MAX_BYTES = 1024 * 1024  #: a machine profile is a page of text
 
-_FIELDS = {f.name: f for f in dataclasses.fields(MachineProfile) if f.name != "extra"}
+#: the fields that are not keys of a profile file: what it keeps aside, and where it was read from
+NOT_KEYS = ("extra", "source", "source_sha256")
+_FIELDS = {f.name: f for f in dataclasses.fields(MachineProfile) if f.name not in NOT_KEYS}
 
 
 def load(path: str) -> MachineProfile:
@@ -96,7 +103,8 @@ def load(path: str) -> MachineProfile:
     from ..files import inputs
 
     data, text = inputs.read_toml(path, MAX_BYTES, OptionError, "a machine profile")
-    return from_mapping(data, path, text)
+    profile = from_mapping(data, path, text)
+    return dataclasses.replace(profile, source=path, source_sha256=hashlib.sha256(text.encode("utf-8")).hexdigest())
 
 
 def from_mapping(data: dict[str, Any], origin: str = "<profile>", text: str | None = None) -> MachineProfile:
@@ -193,7 +201,7 @@ def _is_number(value: Any) -> bool:
 
 def to_toml(profile: MachineProfile) -> str:
     """The profile as TOML that :func:`load` reads back (unset limits are left out)."""
-    lines = [f"# machine profile {profile.name!r}"]
+    lines = [f"# machine profile {toml_string(profile.name)}"]
     for name in _FIELDS:
         value = getattr(profile, name)
         if value is not None:
@@ -201,11 +209,30 @@ def to_toml(profile: MachineProfile) -> str:
     return "\n".join(lines) + "\n"
 
 
+_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
+def toml_string(text: str) -> str:
+    """``text`` as a TOML basic string that reads back as ``text``: the quote, the backslash and
+    every control character (U+0000 to U+001F, U+007F, which TOML forbids as they are) escaped.
+
+    :raises ValueError: ``text`` holds a lone surrogate (an undecodable byte of a command line),
+        which no TOML (UTF-8) file can hold.
+    """
+    parts = []
+    for char in text:
+        code = ord(char)
+        if 0xD800 <= code <= 0xDFFF:
+            raise ValueError(f"{text!r} holds a byte that is not UTF-8 text")
+        parts.append(_ESCAPES.get(char) or (f"\\u{code:04X}" if code < 0x20 or code == 0x7F else char))
+    return '"' + "".join(parts) + '"'
+
+
 def _toml_value(value: Any) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return toml_string(value)
     if isinstance(value, tuple):
         return f"[{value[0]!r}, {value[1]!r}]"
     return repr(value)

@@ -71,7 +71,8 @@ if TYPE_CHECKING:  # imported where used: a saved model's check (check_saved) ne
     from .readers.ballbar import BallbarTrace
 
 __all__ = ["MAX_GAP_DEG", "Estimate", "CircularTest", "Diagnosis", "DirectionFigures", "circular_deviation",
-           "circular_test", "diagnose", "jointly_centred", "plausibility", "predict", "screen", "tests"]
+           "circular_test", "diagnose", "jointly_centred", "one_test", "paired", "plausibility", "predict", "screen",
+           "tests"]
 
 SCALING_BACKLASH = ("scaling_x", "scaling_z", "backlash_x", "backlash_z")  #: fitted from any trace
 CENTRE = ("centre_x", "centre_z")  #: the set-up centre
@@ -121,6 +122,7 @@ class Diagnosis:
     centres: tuple[tuple[Estimate, Estimate], ...] = ()  #: every test's set-up centre, in test order
     arcs: str = ""  #: the arcs fitted, for messages
     paths: tuple[str, ...] = ()  #: the traces fitted, in the order given
+    spike: str = ""  #: the largest spike in the traces (ballbar_fit.spike), said; "" when none
 
     @property
     def servo_lag_ms(self) -> Estimate | None:
@@ -155,14 +157,44 @@ def tests(traces: Sequence[BallbarTrace]) -> list[tuple[BallbarTrace, ...]]:
     return [tuple(sorted(test, key=lambda t: t.direction != "ccw")) for test in grouped]
 
 
+def one_test(traces: Sequence[BallbarTrace], who: str = "") -> tuple[BallbarTrace, ...]:
+    """The traces of one test, ccw runs first; traces of another radius or centre are refused
+    naming every test's files."""
+    grouped = tests(traces)
+    if len(grouped) != 1:
+        raise MeasurementError(f"{who + ': ' if who else ''}the traces are of {len(grouped)} different tests (a test is "
+                               f"one radius and one centre): {ballbar_fit.tests_text(grouped)}; give the traces of one "
+                               "test, or correct the radius or centre in a file's header", Location(grouped[1][0].path))
+    return grouped[0]
+
+
+def paired(traces: Sequence[BallbarTrace], who: str) -> list[tuple[BallbarTrace, ...]]:
+    """The traces grouped by test (:func:`tests`), every test with a ccw and a cw run.
+
+    A ccw and a cw trace pair only when they are of one test (one radius, one nominal centre,
+    one mount): what flips with the direction (backlash, servo mismatch) is told from what
+    does not by comparing the two runs over one circle, and two circles differ by their
+    set-up centres and by the machine's errors where they lie. A test with one direction is
+    refused naming every test's files, whether its partner is missing or is of another test.
+    """
+    grouped = tests(traces)
+    lone = [test for test in grouped if len({t.direction for t in test}) < 2]
+    if lone:
+        missing = "cw" if lone[0][0].direction == "ccw" else "ccw"
+        raise MeasurementError(
+            f"{who} needs a ccw (G03) and a cw (G02) trace of each test (one radius, one centre), and the traces "
+            f"are of {len(grouped)} test{'s' if len(grouped) > 1 else ''}: {ballbar_fit.tests_text(grouped)}; "
+            f"R {lone[0][0].radius:g} mm about x {lone[0][0].centre[0]:g}, z {lone[0][0].centre[1]:g} mm has no "
+            f"{missing} trace: give it, or correct the radius or centre in a file's header if two files are of one test",
+            Location(lone[0][0].path))
+    return grouped
+
+
 def circular_test(traces: Sequence[BallbarTrace]) -> CircularTest:
     """G and F of each trace of one test; G(b) and H of its first ccw and first cw trace."""
     from .figures import figures
 
-    ordered = tests(traces)
-    if len(ordered) != 1:
-        raise MeasurementError("the traces are of different tests (another radius or centre)", Location(traces[-1].path))
-    ordered = ordered[0]
+    ordered = one_test(traces)
     by_direction = tuple(
         DirectionFigures(t.direction, circular_deviation(t), float(t.deviations.min()), float(t.deviations.max()),
                          figures(t.deviations), t.arc, t.path)
@@ -193,16 +225,27 @@ def diagnose(traces: Sequence[BallbarTrace], limit: float = ballbar_fit.EFFECT_L
     """Fit the machine model to any number of tests, each with its own set-up centre.
 
     Refuses (MeasurementError naming the arcs and the parameter) when a parameter cannot be
-    separated or its 3-sigma effect exceeds ``limit`` mm.
+    separated or its 3-sigma effect exceeds ``limit`` mm; and (naming every test's files) when
+    the ccw and the cw traces are of different tests only: squareness and servo mismatch are
+    told apart by the two directions over one circle, and across circles the set-up centres and
+    the machine's errors where each lies differ (a 200 mm move of the centre read 10 urad of
+    squareness more, 3 sigma 1 urad, on the sample lathe).
     """
     from .figures import figures
 
     grouped = tests(traces)
+    if len({t.direction for t in traces}) == 2 and all(len({t.direction for t in test}) == 1 for test in grouped):
+        raise MeasurementError(
+            "the ccw and the cw traces are of different tests (a test is one radius and one centre), and the "
+            f"directions pair only within a test: {ballbar_fit.tests_text(grouped)}; give each test's other "
+            "direction, or correct the radius or centre in a file's header if two files are of one test",
+            Location(grouped[1][0].path))
     ordered = [trace for test in grouped for trace in test]
     samples = ballbar_fit.Samples.of(ordered)
     names = model_names(ordered)
     result = ballbar_fit.fit(samples, ballbar_fit.machine_errors(samples, names))
     ballbar_fit.require(result, limit=limit)
+    spike = ballbar_fit.spike(samples, result.residuals)
     fit = result.estimates()
     feeds = {t.feed for t in ordered}
     centres = tuple(result.centre(mount) for mount in range(len(samples.groups)))
@@ -212,7 +255,7 @@ def diagnose(traces: Sequence[BallbarTrace], limit: float = ballbar_fit.EFFECT_L
         backlash_z=fit["backlash_z"], squareness=fit.get("squareness"), servo_mismatch=fit.get("servo_mismatch"),
         apparent_squareness=fit.get("apparent_squareness"), centre_offset=centres[0],
         residual=figures(result.residuals), feed=feeds.pop() if len(feeds) == 1 else None, centres=centres,
-        arcs=arcs_text(ordered), paths=tuple(t.path for t in traces))
+        arcs=arcs_text(ordered), paths=tuple(t.path for t in traces), spike=spike[0] if spike else "")
 
 
 def centred(traces: Sequence[BallbarTrace], diagnosis: Diagnosis) -> list[BallbarTrace]:
@@ -251,6 +294,22 @@ def screen(traces: Sequence[BallbarTrace], reporter, force: bool, who: str = "")
     return diagnosis
 
 
+def screen_spikes(traces: Sequence[BallbarTrace], reporter, force: bool, who: str,
+                  result: ballbar_fit.JointFit | None = None) -> None:
+    """For a compensator that cuts the traces themselves into the program (ballbar-inverse,
+    iterative): a spike in one (ballbar_fit.spike) refuses naming its file, line and size,
+    unless ``force``; ``result``, the traces' joint fit when the caller has made it."""
+    if result is None:
+        result = jointly_centred(traces)[1]
+    found = ballbar_fit.spike(result.samples, result.residuals)
+    if found is None:
+        return
+    text, where = found
+    if not force:
+        raise MeasurementError(f"{who}: {text}; --force uses the traces as they are", where)
+    reporter.warn(f"{who}: {text} (--force: used as they are)", where)
+
+
 def check_saved(compensator: str, parameters: dict[str, Estimate]) -> None:
     """Hold a saved model's parameters (``scaling_*``, ``backlash_*``: value and 1-sigma, mm
     and mm/mm) to what its traces were held to: finite, a 1-sigma not negative, a scaling within
@@ -271,13 +330,15 @@ def check_saved(compensator: str, parameters: dict[str, Estimate]) -> None:
 def plausibility(diagnosis: Diagnosis) -> tuple[list[str], list[str]]:
     """Results no machine gives, with their likely cause: (problems, warnings).
 
-    Problems make a compensator refuse (unless forced): both backlashes clearly negative (the
+    Problems make a compensator refuse (unless forced): a spike in a trace (one or two samples
+    far off the fit, ballbar_fit.spike: a compensator would cut it into the part), both
+    backlashes clearly negative (the
     ccw and cw labels swapped: every direction-dependent term flips, and the model would
     double the error), a scaling beyond 500 ppm (a radius that is not the bar's length, or a
     unit), a backlash beyond 50 um (a unit, or a machine to repair first). Warnings: one
     backlash clearly negative (a control's backlash compensation set too high).
     """
-    problems, warnings = [], []
+    problems, warnings = [diagnosis.spike] if diagnosis.spike else [], []
     lag = diagnosis.servo_lag_ms
     servo = ""
     if lag is not None:

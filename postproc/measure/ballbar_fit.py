@@ -106,6 +106,18 @@ def mounts(traces: Sequence[BallbarTrace]) -> list[list[int]]:
     return list(groups.values())
 
 
+def test_text(test: Sequence[BallbarTrace]) -> str:
+    """One test's circle and its traces, for messages: ``R 100 mm about x 0, z -200 mm: ccw a.csv, cw b.csv``."""
+    first = test[0]
+    return (f"R {first.radius:g} mm about x {first.centre[0]:g}, z {first.centre[1]:g} mm: "
+            + ", ".join(f"{trace.direction} {trace.path}" for trace in test))
+
+
+def tests_text(grouped: Sequence[Sequence[BallbarTrace]]) -> str:
+    """Every test's circle and traces, numbered: ``test 1: R 100 mm about ...; test 2: ...``."""
+    return "; ".join(f"test {number}: {test_text(test)}" for number, test in enumerate(grouped, 1))
+
+
 def arc_text(trace: BallbarTrace) -> str:
     """``220 deg from -20 to 200 deg`` or ``the whole circle``."""
     start, span = trace.arc
@@ -400,13 +412,73 @@ def _solve(matrix: np.ndarray, measured: np.ndarray, used: np.ndarray, every: tu
     return solution, inverse, singular
 
 
+SPIKE_SIGMAS = 8.0  #: a residual this many robust sigmas off its trace's ...
+SPIKE_FLOOR_MM = 0.005  #: ... and at least this far, on at most SPIKE_SAMPLES samples in a row, is a spike
+SPIKE_SAMPLES = 2
+SPIKE_CLEAR_DEG = 3.0  #: not within this of an axis reversal, where the machine itself makes spikes
+
+
+def spike(samples: Samples, residuals: np.ndarray) -> tuple[str, Location] | None:
+    """The largest spike among the traces, said with its file, line, size, cause and remedy, or None.
+
+    A spike is a reading no machine makes: one or two samples far off the fit while their
+    neighbours lie on it (a knock, dirt on a ball, the bar re-seating in its cup). Least squares
+    spreads it over every parameter, whose uncertainties come from the residuals, so a spike
+    reads as a parameter "not determined" and the arc or the directions get the blame: a fit
+    refused for its uncertainties names the spike instead. Off the fit means beyond
+    SPIKE_SIGMAS of the trace's robust spread (1.4826 times the median absolute residual) and
+    SPIKE_FLOOR_MM; a longer run off it is the machine, and so is anything within
+    SPIKE_CLEAR_DEG of an axis reversal (a quadrant), where servo and friction make the
+    machine's own reversal spikes and raw averaging straddles the backlash step."""
+    found: list[tuple[float, int, int]] = []
+    clear = math.sin(math.radians(SPIKE_CLEAR_DEG))
+    for index in range(len(samples.traces)):
+        mask = samples.of_trace(index)
+        mine = residuals[mask]
+        if len(mine) < 5:
+            continue
+        middle = float(np.median(mine))
+        limit = max(SPIKE_SIGMAS * 1.4826 * float(np.median(np.abs(mine - middle))), SPIKE_FLOOR_MM)
+        away = np.minimum(np.abs(samples.cos[mask]), np.abs(samples.sin[mask])) > clear
+        off = np.concatenate([[False], (np.abs(mine - middle) > limit) & away, [False]])
+        edges = np.flatnonzero(np.diff(off.astype(int)))
+        for start, stop in zip(edges[::2], edges[1::2]):
+            if stop - start <= SPIKE_SAMPLES:
+                at = start + int(np.argmax(np.abs(mine[start:stop] - middle)))
+                found.append((abs(float(mine[at] - middle)), index, at))
+    if not found:
+        return None
+    found.sort(reverse=True)
+    _, index, at = found[0]
+    trace = samples.traces[index]
+    values = trace.deviations
+    neighbours = [k for k in (at - 2, at - 1, at + 1, at + 2) if 0 <= k < len(values) and abs(k - at) <= 2]
+    near = float(np.median(values[[k for k in neighbours if abs(float(values[k] - values[at])) > 0.5 * found[0][0]]
+                                  or neighbours]))
+    row = None if trace.rows is None else int(trace.rows[at])
+    line = "" if row is None else f" line {row}" if not trace.raw else f" (the readings from line {row})"
+    where = f"{trace.path}{line}, the sample at {trace.angles[at]:g} deg,"
+    redo = ("run the test again" if trace.raw or row is None else
+            f"run the test again, or delete that line (a gap of up to {MAX_GAP_DEG:g} deg is bridged)")
+    more = f" ({len(found) - 1} more spike{'s' if len(found) > 2 else ''} in the traces)" if len(found) > 1 else ""
+    text = (f"{where} reads {values[at]:+.4f} mm where its neighbours read {near:+.4f} mm: a spike of "
+            f"{(values[at] - near) * 1000:+.1f} um in one {'averaged group of readings' if trace.raw else 'sample'}, "
+            f"not the machine (a knock, dirt on a ball, the bar re-seating){more}: {redo}")
+    return text, Location(trace.path, row)
+
+
 def require(result: JointFit, names: Sequence[str] | None = None, limit: float = EFFECT_LIMIT_MM) -> None:
-    """Refuse a fit whose parameters are not determined: 3 sigma of an effect above ``limit`` mm."""
+    """Refuse a fit whose parameters are not determined: 3 sigma of an effect above ``limit`` mm;
+    a spike in a trace (:func:`spike`) is named as the cause when there is one."""
     worst = [(3.0 * result.effect(name), name) for name in (names or result.names)
              if 3.0 * result.effect(name) > limit]
     if not worst:
         return
     worst.sort(reverse=True)
+    found = spike(result.samples, result.residuals)
+    if found is not None:
+        raise Undetermined(f"the fit is not determined, and the likely cause is a spike: {found[0]}", found[1],
+                           tuple(name for _, name in worst))
     listed = ", ".join(f"{label(name)} +-{shown(name, 3.0 * result.estimate(name).sigma).lstrip('+')} "
                        f"({effect * 1000:.2f} um)" for effect, name in worst)
     raise Undetermined(

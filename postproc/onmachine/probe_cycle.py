@@ -106,6 +106,37 @@ class Cycle:
             if value is not None and not re.fullmatch(r"\d{1,8}", value):
                 raise OptionError(f"{name} {value}: expected the digits of a {letter} code, e.g. "
                                   f"{'0909' if letter == 'T' else '55'}")
+        if self.tool is not None:
+            _check_tool(self.tool)
+        for name, value in (("--probe-on", self.probe_on), ("--probe-off", self.probe_off)):
+            if value is not None and int(value) in RESERVED_M:
+                raise OptionError(f"{name} M{value}: M{int(value):02d} {RESERVED_M[int(value)]} on a FANUC control, it "
+                                  "cannot switch the probe; give the machine builder's M code for it (e.g. M55)")
+        if self.probe_on is not None and self.probe_off is not None and int(self.probe_on) == int(self.probe_off):
+            raise OptionError(f"--probe-on M{self.probe_on} and --probe-off M{self.probe_off}: one M code cannot "
+                              "switch the probe both on and off")
+
+
+#: M codes whose meaning a FANUC control fixes (or every lathe builder gives them): never the probe's switch
+RESERVED_M = {0: "stops the program", 1: "is the optional stop", 2: "ends the program", 3: "starts the spindle",
+              4: "starts the spindle", 5: "stops the spindle", 8: "switches the coolant on",
+              9: "switches the coolant off", 30: "ends the program and rewinds it", 98: "calls a subprogram",
+              99: "returns from a subprogram"}
+
+
+def _check_tool(digits: str) -> None:
+    """A T code that selects a tool and its offset: T0 (any number of zeros) selects no tool and
+    cancels the offset; in the four-digit form (tool, offset) tool 00 is no tool and offset 00
+    cancels the offset, which must put the programmed point at the stylus centre."""
+    said = f"--tool T{digits}"
+    if int(digits) == 0:
+        raise OptionError(f"{said}: T0 selects no tool and cancels the tool offset; give the probe's tool and "
+                          "offset, e.g. T0909")
+    if len(digits) == 4 and int(digits[:2]) == 0:
+        raise OptionError(f"{said}: tool 00 is no tool; give the probe's tool and offset, e.g. T{digits[2:]}{digits[2:]}")
+    if len(digits) == 4 and int(digits[2:]) == 0:
+        raise OptionError(f"{said}: offset 00 cancels the tool offset, which must put the programmed point at the "
+                          f"stylus centre; give the probe's offset, e.g. T{digits[:2]}{digits[:2]}")
 
 
 def code_digits(text: str | None, letter: str) -> str | None:

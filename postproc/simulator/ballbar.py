@@ -40,6 +40,9 @@ from .path import Commanded, Timeline, sample, speed
 DIRECTIONS = ("ccw", "cw")
 FORMS = ("processed", "raw")
 ON_CIRCLE_MM = 0.5  #: a feed move whose every point lies this close to the test circle runs on it
+#: the first (last) lines on it whose ends' radii differ by more than this reach the circle (lead-in,
+#: lead-out); a chord of a compensated circle's differ by microns, a 5 mm tangent lead-in's at 100 mm by 125 um
+CHORD_MM = 0.01
 TURNED_BACK_DEG = 1.0  #: a run on the test circle that goes back by more than this is no ballbar test
 
 
@@ -139,6 +142,10 @@ def program_test(simulation: Simulation, rng: np.random.Generator | None, moves:
     centre, radius = _circle(feed, centre, radius, where)
     setup = simulation.ballbar
     on = [index for index, move in feed if _on_circle(move, centre, radius)]
+    while on and _reaches(moves[on[0]], centre, radius):  # the lead-in, not the test
+        on.pop(0)
+    while on and _reaches(moves[on[-1]], centre, radius):  # the lead-out
+        on.pop()
     if not on:
         raise OptionError(f"no feed move runs on the test circle of radius {radius:g} mm about x {centre[0]:g}, "
                           f"z {centre[1]:g} (within {ON_CIRCLE_MM:g} mm); give --radius, --center-x and --center-z",
@@ -215,3 +222,14 @@ def _circle(feed: list[tuple[int, Move]], centre: tuple[float, float] | None, ra
 def _on_circle(move: Move, centre: tuple[float, float], radius: float) -> bool:
     points = segment_of(move).point_at(np.linspace(0.0, 1.0, 33))
     return bool(np.all(np.abs(np.hypot(points[:, 0] - centre[0], points[:, 1] - centre[1]) - radius) <= ON_CIRCLE_MM))
+
+
+def _reaches(move: Move, centre: tuple[float, float], radius: float) -> bool:
+    """A line that comes onto the circle (or leaves it) from another radius rather than running
+    along it as a chord does: its ends' radii differ by more than CHORD_MM. A test's lead-in or
+    lead-out, however near the circle it runs (a tangent one, 125 um off at 5 mm from 100 mm)."""
+    if move.kind != LINE:
+        return False
+    ends = segment_of(move).point_at(np.array([0.0, 1.0]))
+    off = np.hypot(ends[:, 0] - centre[0], ends[:, 1] - centre[1]) - radius
+    return abs(float(off[1] - off[0])) > CHORD_MM

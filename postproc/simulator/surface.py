@@ -97,6 +97,10 @@ class Turned:
 
         An end of the polyline off the spindle axis is continued by ``reach`` along its last
         direction, so a point at the very end of a cut that moved away from it still measures.
+        So is, where the normal crosses nothing, every segment at both its ends: a point at a
+        corner of the profile whose cut corner moved (the face beside it left higher, the
+        point buried under it, or a convex edge pulled back) measures its own feature's
+        surface continued along its end, as a point beside the corner does.
         """
         starts, ends = self.segments()
         extra = [(a, b) for a, b in ((self.points[1], self.points[0]), (self.points[-2], self.points[-1]))
@@ -105,16 +109,30 @@ class Turned:
             direction = (b - a) / np.linalg.norm(b - a)
             starts = np.concatenate([starts, [b]])
             ends = np.concatenate([ends, [b + reach * direction]])
+        found = _nearest_crossing(starts, ends, point, normal, reach)
+        if found is not None:
+            return found
+        starts, ends = self.segments(point, reach)
         along = ends - starts
-        denominator = _cross(np.broadcast_to(normal, along.shape), along)
-        usable = np.abs(denominator) > 1e-15
-        offset = starts[usable] - point
-        u = _cross(offset, along[usable]) / denominator[usable]
-        t = _cross(offset, np.broadcast_to(normal, offset.shape)) / denominator[usable]
-        hits = u[(t >= -1e-12) & (t <= 1.0 + 1e-12) & (np.abs(u) <= reach)]
-        if hits.size == 0:
-            return None
-        return float(hits[np.argmin(np.abs(hits))])
+        length = np.linalg.norm(along, axis=1)
+        keep = length > 0
+        unit = along[keep] / length[keep, None]
+        return _nearest_crossing(starts[keep] - reach * unit, ends[keep] + reach * unit, point, normal, reach)
+
+
+def _nearest_crossing(starts: np.ndarray, ends: np.ndarray, point: np.ndarray, normal: np.ndarray,
+                      reach: float) -> float | None:
+    """The u nearest zero where ``point + u normal`` meets a segment, |u| within ``reach``."""
+    along = ends - starts
+    denominator = _cross(np.broadcast_to(normal, along.shape), along)
+    usable = np.abs(denominator) > 1e-15
+    offset = starts[usable] - point
+    u = _cross(offset, along[usable]) / denominator[usable]
+    t = _cross(offset, np.broadcast_to(normal, offset.shape)) / denominator[usable]
+    hits = u[(t >= -1e-12) & (t <= 1.0 + 1e-12) & (np.abs(u) <= reach)]
+    if hits.size == 0:
+        return None
+    return float(hits[np.argmin(np.abs(hits))])
 
 
 @dataclass(frozen=True)

@@ -234,7 +234,7 @@ OPTIONS = [
     (["--max-correction", "-1"], 3, "postproc: error: --max-correction -1.0: must be positive"),
     (["--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW, "--option", "extrapolate=perhaps"], 3,
      "postproc: error: --option parametric.extrapolate=perhaps: expected true or false"),
-    (["--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW, "--region", "N10..N20"], 3, "postproc: error: --region N10..N20: expected N100-N200, L10-L50 (or 10-50) or a tool like T01"),
+    (["--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW, "--region", "N10..N20"], 3, "postproc: error: --region N10..N20: expected N100-N200 or N100 (sequence numbers), L10-L50, L10, 10-50 or 10 (source lines), or a tool like T01"),
     (["--ballbar", CCW], 2, "postproc: error: measurements were given but no compensator (--plugin) to use them"),
     (["--tolerance", "inf"], 3, "postproc: error: --tolerance inf: not a finite number"),
     (["--tolerance", "nan"], 3, "postproc: error: --tolerance nan: not a finite number"),

@@ -147,3 +147,26 @@ def test_the_examples_on_the_samples_run(example, run, monkeypatch):
     result = run(*shlex.split(example)[1:])
     assert result.exit_code == 0, result.stderr
     assert result.stdout
+
+
+@pytest.mark.parametrize("selected", [["parametric"], ["error-map"], ["iterative"], ["error-map", "parametric"],
+                                      ["ballbar-inverse", "omp-feedback", "tool-offset"]])
+def test_option_completion_offers_the_selected_compensators_keys_alone(selected):
+    """After ``--plugin X`` only X's keys (qualified, and alone where no other selected one takes the key);
+    before any ``--plugin``, every installed compensator's."""
+    from postproc.compensate.registry import compensators
+
+    found = compensators()
+    plugins = " ".join(f"--plugin {name}" for name in selected)
+    offered = _complete(f"compensate {plugins} --option", "")
+    declared = {name: [option.key for option in found[name].cls.options] for name in selected}
+    qualified = [f"{name}.{key}=" for name in selected for key in declared[name]]
+    counts = {}
+    for keys in declared.values():
+        for key in keys:
+            counts[key] = counts.get(key, 0) + 1
+    assert offered == qualified + [f"{key}=" for key, count in counts.items() if count == 1]
+    for other in set(found) - set(selected):
+        assert not any(item.startswith(f"{other}.") for item in offered), other
+    everything = _complete("compensate --option", "")
+    assert everything == [f"{name}.{option.key}=" for name, item in sorted(found.items()) for option in item.cls.options]

@@ -292,3 +292,42 @@ def test_check_and_an_identity_run_import_no_numpy(tmp_path):
         loaded, stderr = _started(*args)
         assert loaded["code"] == 0, stderr
         assert [name for name in loaded["modules"] if name.split(".")[0] in ("numpy", "pluggy", "lark")] == [], args
+
+
+def _runs(tmp_path):
+    """Commands that say warnings and summary lines, and one that fails after a warning."""
+    from support import SAMPLES
+
+    source = tmp_path / "part.nc"
+    source.write_bytes(HEMISHELL)
+    out = tmp_path / "out"
+    out.mkdir()
+    traces = ["--plugin", "parametric", "--ballbar", str(SAMPLES / "ballbar/v40r-100-ccw.csv"),
+              "--ballbar", str(SAMPLES / "ballbar/v40r-100-cw.csv")]
+    return {
+        "check": (["check", str(source)], 0),
+        "compensate, a warning": (["compensate", str(source)], 0),
+        "compensate, a summary": (["compensate", str(source), *traces], 0),
+        "a batch": (["compensate", str(source), *map(str, corpus("fanuc")[:2]), "--out-dir", str(out), *traces], None),
+        "artifact-program": (["artifact-program", "--center-x", "80", "--center-z", "30", "--artifact-radius", "25.4"], 0),
+        "a failure": (["compensate", str(source), "--tolerance", "0"], 3),
+    }
+
+
+@pytest.mark.parametrize("name", ["check", "compensate, a warning", "compensate, a summary", "a batch",
+                                  "artifact-program", "a failure"])
+def test_quiet_keeps_the_terminal_to_errors_and_the_log_gets_what_it_would_get(run, tmp_path, name):
+    args, code = _runs(tmp_path)[name]
+    loud_log, quiet_log = tmp_path / "loud.log", tmp_path / "quiet.log"
+    loud = run("--log", str(loud_log), *args)
+    if name == "a batch":
+        for path in (tmp_path / "out").iterdir():
+            path.unlink()
+    quiet = run("-q", "--log", str(quiet_log), *args)
+    assert code is None or (loud.exit_code, quiet.exit_code) == (code, code)
+    assert quiet.exit_code == loud.exit_code
+    assert quiet.stdout == loud.stdout
+    assert loud.stderr != "" and loud_log.read_text() == loud.stderr
+    assert quiet_log.read_text() == loud.stderr  # the log: all of it, quiet or not
+    errors = [line for line in loud.stderr.splitlines(keepends=True) if ": error: " in line]
+    assert quiet.stderr == "".join(errors)  # the terminal: the errors alone

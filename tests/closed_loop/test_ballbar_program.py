@@ -153,3 +153,36 @@ def test_the_same_machine_cuts_the_uncompensated_hemishell_as_the_sources_simula
     cut = json.loads(cli("simulate", "inspect", str(SAMPLES / "programs" / "hemishell.nc"), "--machine", MACHINE,
                          "--from-line", 10, "--to-line", 10, "--json").stdout)
     assert cut["std_um"] == pytest.approx(4.0, abs=0.3)
+
+
+def one_block_circle(direction: str, lead_in_mm: float) -> str:
+    """The test circle in one block (G02/G03 back to its start), reached by a tangent lead-in along
+    -Z at x 100 (the circle's point at 0 deg, where the tangent is the Z axis)."""
+    word = "G03" if direction == "ccw" else "G02"
+    approach = lead_in_mm if direction == "ccw" else -lead_in_mm  # ccw runs theta down: from +Z at 0 deg
+    return (f"%\nO0101 (BALLBAR TEST 100 MM, ONE BLOCK, {word})\nG18 G21 G40 G98\nG00 X200. Z{approach + 3:.1f}\n"
+            f"G01 Z{approach:.1f} F1000.\nG01 Z0.\n{word} X200. Z0. I-100. K0.\nG00 X210.\nM30\n%\n")
+
+
+@pytest.mark.parametrize("direction, mode", [("ccw", "auto"), ("cw", "line")])
+def test_a_whole_circle_in_one_block_is_read_from_0_deg_and_compensated(tmp_path, direction, mode):
+    """The tangent lead-in reaches the circle at 0 deg from 5 mm off it (125 um outside at its
+    start): not part of the test, the bar reads 360 deg from 0 deg; ballbar-inverse plans the one
+    block as its two halves, and the circle measured again is at least three times rounder."""
+    program = tmp_path / "circle.nc"
+    program.write_text(one_block_circle(direction, 5.0))
+    before = tmp_path / "before.csv"
+    cli("simulate", "ballbar", "--program", program, "--machine", MACHINE, "-o", before)
+    angles = [float(line.split(",")[0]) for line in before.read_text().splitlines()
+              if line[:1].isdigit() or line[:1] == "-"]
+    assert angles[0] == 0.0 and len(angles) == 720
+    compensated = tmp_path / "compensated.nc"
+    result = cli("compensate", program, "--plugin", "ballbar-inverse", "--ballbar", before, "--mode", mode,
+                 "-o", compensated)
+    assert result.stdout == "" and "blocks replaced" in result.stderr
+    after = tmp_path / "after.csv"
+    cli("simulate", "ballbar", "--program", compensated, "--machine", MACHINE, *ON_THE_BAR, "-o", after)
+    g = [json.loads(cli("ballbar", trace, "--no-diagnosis", "--json").stdout)["circular_deviation_mm"][direction]
+         for trace in (before, after)]
+    print(f"\none block, {direction}, {mode}: G {g[0] * 1000:.2f} -> {g[1] * 1000:.2f} um")
+    assert g[1] * 3.0 <= g[0]

@@ -4,10 +4,13 @@ compensation seen wherever its mark stands, nothing done said, a model's measure
 from __future__ import annotations
 
 import datetime as dt
+import hashlib
 import json
 import os
 import subprocess
 import sys
+
+from hypothesis import HealthCheck, given, settings, strategies as st
 
 from support import SAMPLES
 
@@ -122,3 +125,38 @@ def test_a_pipe_without_the_key_is_measured_now_with_a_warning_never_the_epoch(t
     assert "warning: no measurement time: the file has no '# measured = ...' header line" in result.stderr
     measured = dt.datetime.fromisoformat(json.loads((tmp_path / "m.json").read_text())["measured"])
     assert abs((dt.datetime.now(dt.timezone.utc) - measured).total_seconds()) < 600
+
+
+PROFILE_KEYS = {"max_correction": st.sampled_from([0.05, 0.08, 0.1, 0.2]),
+                "nose_radius_mm": st.sampled_from([0.2, 0.4, 0.8]),
+                "output_decimals_mm": st.sampled_from([3, 4]),
+                "controller": st.text(alphabet="abc -", max_size=8)}
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(chosen=st.fixed_dictionaries({}, optional=PROFILE_KEYS), spacing=st.sampled_from(["", "\n# shop lathe 3\n"]))
+def test_the_header_identifies_a_profile_file_by_its_bytes_whatever_its_name(run, tmp_path_factory, chosen, spacing):
+    """A profile without ``name`` is named as the default is: the header tells them apart by the
+    file and the SHA-256 of its bytes; the embedded default has no PROFILE line."""
+    folder = tmp_path_factory.mktemp("profile")
+    path = folder / "shop-lathe.toml"
+    text = spacing + "".join(f"{key} = {json.dumps(value)}\n" for key, value in chosen.items())
+    path.write_text(text)
+    own = run("compensate", str(HEMISHELL), *TRACES, "--machine", str(path))
+    default = run("compensate", str(HEMISHELL), *TRACES)
+    assert (own.exit_code, default.exit_code) == (0, 0), own.stderr
+    digest = hashlib.sha256(text.encode()).hexdigest()[:12].upper()
+    assert f"(PROFILE SHOP-LATHE.TOML SHA256 {digest})" in _header(own.stdout)
+    assert not any(line.startswith("(PROFILE ") for line in _header(default.stdout))
+    assert _header(own.stdout) != _header(default.stdout)
+
+
+def test_a_profile_made_in_a_library_call_is_identified_by_its_settings():
+    from postproc.compensate.pipeline import _profile_lines
+    from postproc.machine.profile import DEFAULT, from_mapping
+
+    assert _profile_lines(DEFAULT) == [] and _profile_lines(from_mapping({})) == []
+    one, other = from_mapping({"nose_radius_mm": 0.8}), from_mapping({"nose_radius_mm": 0.2})
+    assert _profile_lines(one)[0].startswith("PROFILE SETTINGS SHA256 ")
+    assert _profile_lines(one) != _profile_lines(other) and _profile_lines(one) == _profile_lines(
+        from_mapping({"nose_radius_mm": 0.8}))

@@ -207,3 +207,33 @@ def test_bends_measured_together_are_each_target_s_own():
     measure_bends(targets)
     assert [target.bend for target in targets] == alone
     assert alone[0] < 1e-12 < min(alone[1:])
+
+
+@st.composite
+def whole_circle_targets(draw):
+    """One block's whole circle (a ballbar test program's), moved radially by whole harmonics of
+    the turn, so that its corrected ends are one point as its nominal ends are."""
+    radius = draw(st.floats(5.0, 60.0))
+    arc = Arc(draw(st.floats(-20, 20)), draw(st.floats(-20, 20)), radius, math.radians(draw(st.floats(0.0, 360.0))),
+              2.0 * math.pi * draw(st.sampled_from([1, -1])))
+    t = sample_params(arc)
+    wave = draw(st.floats(-0.02, 0.02)) + sum(draw(st.floats(0.0, 0.01)) * np.cos(2.0 * math.pi * k * t + draw(
+        st.floats(0, 6.3))) for k in (1, 2, 3))
+    unit = (arc.point_at(t) - np.array(arc.centre)) / arc.r
+    return Target(arc, t, unit * wave[:, None])
+
+
+@settings(max_examples=8, deadline=None)
+@given(whole_circle_targets(), st.sampled_from([0.001, 0.01]))
+def test_a_whole_circle_in_one_block_is_planned_within_tolerance_in_every_mode(target, tolerance):
+    """Its ends are one point: no arc or chord between them follows it, so it is planned as two
+    halves; never refused as a move shorter than the grid. (The segmenter's own measure follows
+    a target's progress from end to end, so the plan is held to the brute-force distance.)"""
+    limits = Limits(tolerance, MM)
+    for mode in ("auto", "arc", "line"):
+        cuts = plan(target, limits, mode).cuts
+        assert brute_deviation(target, cuts) <= tolerance * 1.02 + 1e-6
+        assert all(a.end == b.start for a, b in zip(cuts, cuts[1:]))
+        assert cuts[0].start == cuts[-1].end == MM.snap(*target.start)
+        assert len(cuts) >= 2 and all(cut.start != cut.end for cut in cuts)
+        assert mode != "line" or not any(cut.is_arc for cut in cuts)

@@ -27,8 +27,10 @@ def _bash(script: str, folder) -> subprocess.CompletedProcess:
 
 
 def _body(program: str) -> list[str]:
-    """The program without its INPUT and MODEL provenance lines (a pipe's name is /dev/fd/N)."""
-    return [line for line in program.splitlines() if not line.startswith(("(INPUT", "(MODEL"))]
+    """The program without the provenance lines that name a file (a pipe's name is /dev/fd/N); the
+    hashes they give kept."""
+    return [line.split(" SHA256 ")[-1] if line.startswith(("(INPUT", "(PROFILE")) else line
+            for line in program.splitlines() if not line.startswith("(MODEL")]
 
 
 def test_process_substitution_gives_the_same_program_as_the_files(tmp_path):

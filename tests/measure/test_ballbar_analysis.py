@@ -8,11 +8,14 @@ direction and read through a bar whose pivot is off the circle's centre, in both
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings, strategies as st
 
 from support import SAMPLES
 from postproc.measure.ballbar_analysis import circular_deviation, circular_test, diagnose, predict
@@ -475,3 +478,132 @@ def test_one_negative_backlash_is_a_warning_not_a_refusal(tmp_path, run):
     result = run("compensate", HEMISHELL, "--plugin", "parametric", *(a for p in paths for a in ("--ballbar", p)))
     assert result.exit_code == 0
     assert "backlash X is negative (-3.00 um): the control's backlash compensation may be set too high" in result.stderr
+
+
+# -- a ccw and a cw trace pair only when they are of one test -------------------------------------
+
+PAIRING = ("error-map", "parametric", "effective-angle", "ballbar-inverse", "iterative")
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(field=st.sampled_from(["radius_mm", "center_x_mm", "center_z_mm"]),
+       shift=st.sampled_from([-150.0, -0.5, 0.001, 2.0, 200.0]))
+def test_a_ccw_and_a_cw_trace_of_two_tests_are_never_paired(tmp_path_factory, run, field, shift):
+    """Another radius or centre in the cw trace's header makes it another test: every compensator
+    that pairs the directions refuses naming both files, and ``postproc ballbar``'s diagnosis too
+    (it would read squareness and servo mismatch off two circles' set-ups)."""
+    folder = tmp_path_factory.mktemp("mixed")
+    angles = np.arange(0.0, 360.0, 1.0)
+    header = {"center_x_mm": 0.0, "center_z_mm": 0.0}
+    ccw = write_trace(folder / "ccw.csv", "ccw", analytic_machine(angles, "ccw"), angles, **header)
+    other = dict(header)
+    if field == "radius_mm":
+        text_radius = RADIUS + abs(shift)
+    else:
+        other[field] += shift
+        text_radius = RADIUS
+    cw = write_trace(folder / "cw.csv", "cw", analytic_machine(angles, "cw"), angles, **other)
+    if text_radius != RADIUS:
+        Path(cw).write_text(Path(cw).read_text().replace(f"# radius_mm = {RADIUS}\n", f"# radius_mm = {text_radius}\n"))
+    for plugin in PAIRING:
+        result = run("compensate", HEMISHELL, "--plugin", plugin, "--ballbar", ccw, "--ballbar", cw)
+        assert (result.exit_code, result.stdout) == (3, ""), plugin
+        assert "different tests" in result.stderr or "trace of each test" in result.stderr, plugin
+        assert f"ccw {ccw}" in result.stderr and f"cw {cw}" in result.stderr, plugin
+        assert result.stderr.count("error:") == 1, plugin
+    report = invoke(ccw, cw)
+    assert (report.exit_code, report.stdout) == (3, "")
+    assert "the ccw and the cw traces are of different tests" in report.stderr
+    assert f"ccw {ccw}" in report.stderr and f"cw {cw}" in report.stderr
+    assert "--no-diagnosis" in report.stderr
+    alone = invoke(ccw, cw, "--no-diagnosis")  # the ISO figures of each test, stated as two tests
+    assert (alone.exit_code, alone.stderr) == (0, "")
+    assert "ballbar test 1:" in alone.stdout and "ballbar test 2:" in alone.stdout
+
+
+def test_a_test_with_one_direction_beside_a_paired_one_is_refused_by_what_pairs_each_test(tmp_path, run):
+    """Parametric fits one model to every test: a one-direction test beside a paired one adds to it.
+    error-map and effective-angle pair each test's runs: the lone test is refused, named."""
+    angles = np.arange(0.0, 360.0, 1.0)
+    paths = [write_trace(tmp_path / f"{d}.csv", d, analytic_machine(angles, d), angles) for d in ("ccw", "cw")]
+    lone = write_trace(tmp_path / "far-ccw.csv", "ccw", analytic_machine(angles, "ccw"), angles, center_z_mm=-150.0)
+    given = [a for p in (*paths, lone) for a in ("--ballbar", p)]
+    for plugin in ("error-map", "effective-angle"):
+        result = run("compensate", HEMISHELL, "--plugin", plugin, *given)
+        assert (result.exit_code, result.stdout) == (3, ""), plugin
+        assert "R 100 mm about x 0, z -150 mm has no cw trace" in result.stderr, plugin
+        assert result.stderr.startswith(f"{lone}: error: {plugin} needs a ccw (G03) and a cw (G02) trace of each test")
+    assert invoke(*paths, lone).exit_code == 0
+
+
+# -- a spike in a trace is named, never blamed on the arc ---------------------------------------
+
+
+def noisy_test(folder, raw: bool, seed: int) -> dict[str, str]:
+    """A ccw and a cw whole-circle test of ``analytic_machine`` with 0.3 um of noise, 0.5 deg samples
+    (raw: six readings each, in time order from 0 deg)."""
+    rng = np.random.default_rng(seed)
+    paths = {}
+    for d in ("ccw", "cw"):
+        if raw:
+            sign = 1.0 if d == "cw" else -1.0
+            angles = sign * np.arange(4320) * 360.0 / 4320
+            paths[d] = write_trace(folder / f"{d}.csv", d, analytic_machine(angles, d) + rng.normal(0, 3e-4, 4320),
+                                   start=0.0)
+        else:
+            angles = np.arange(0.0, 360.0, 0.5)
+            paths[d] = write_trace(folder / f"{d}.csv", d, analytic_machine(angles, d) + rng.normal(0, 3e-4, 720),
+                                   angles)
+    return paths
+
+
+def spiked(path: str, row: int, size: float, count: int = 1) -> int:
+    """Add ``size`` mm to ``count`` readings of a trace file from the ``row``-th; returns its line number."""
+    lines = Path(path).read_text().splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith(("angle_deg", "deviation_mm"))) + 1
+    for at in range(first + row, first + row + count):
+        cells = lines[at].split(",")
+        cells[-1] = repr(float(cells[-1]) + size)
+        lines[at] = ",".join(cells)
+    Path(path).write_text("\n".join(lines) + "\n")
+    return first + row + 1
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(raw=st.booleans(), quadrant=st.integers(0, 3), offset=st.floats(10.0, 80.0),
+       size=st.sampled_from([-0.9, -0.05, 0.012, 0.3]), seed=st.integers(0, 2**16))
+def test_a_spike_is_named_with_its_file_line_and_size(tmp_path_factory, run, raw, quadrant, offset, size, seed):
+    """One reading (raw: one group of six) off by ``size`` anywhere clear of a reversal: the
+    diagnosis names it, never an arc too short, and every compensator refuses for it."""
+    folder = tmp_path_factory.mktemp("spike")
+    paths = noisy_test(folder, raw, seed)
+    theta = 90.0 * quadrant + offset  # the ccw run goes from 0 deg downwards: sample k at -k/2 deg
+    sample = int(round((360.0 - theta) * 2)) % 720
+    line = spiked(paths["ccw"], sample * 6 if raw else sample, size, 6 if raw else 1)  # raw: a group's first line
+    said = f"{paths['ccw']} {'line' if not raw else '(the readings from line'} {line}"
+    report = invoke(paths["ccw"], paths["cw"])
+    assert report.exit_code in (0, 3)
+    if report.exit_code == 3:
+        assert report.stdout == ""
+        assert report.stderr.startswith(f"{paths['ccw']}:{line}: error: the fit is not determined, and the "
+                                        f"likely cause is a spike: {said}")
+        assert "measure a longer arc" not in report.stderr
+    else:
+        assert said in report.stderr and "warning:" in report.stderr
+    told = float(re.search(r"a spike of ([+-][0-9.]+) um", report.stderr).group(1))
+    assert told == pytest.approx(size * 1000, rel=0.1, abs=3.0)
+    for plugin in ("parametric", "error-map", "ballbar-inverse"):
+        result = run("compensate", HEMISHELL, "--plugin", plugin, "--ballbar", paths["ccw"], "--ballbar", paths["cw"])
+        assert (result.exit_code, result.stdout) == (3, ""), plugin
+        assert said in result.stderr and "a spike of" in result.stderr, plugin
+        assert result.stderr.count("error:") == 1, plugin
+
+
+@pytest.mark.parametrize("raw", [False, True])
+def test_a_trace_without_a_spike_is_not_said_to_have_one(tmp_path, raw):
+    """The machine's own steps at the reversals (backlash, raw groups straddling it) are not spikes."""
+    paths = noisy_test(tmp_path, raw, 7)
+    for given_paths in ([paths["ccw"], paths["cw"]], [str(p) for p in SAMPLE.values()],
+                        [str(SAMPLES / "ballbar" / f"v40r-100-{d}-raw.csv") for d in ("ccw", "cw")]):
+        report = invoke(*given_paths)
+        assert (report.exit_code, report.stderr) == (0, ""), report.stderr

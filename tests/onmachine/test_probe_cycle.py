@@ -16,12 +16,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, strategies as st
 
-from postproc.diagnostics import EXIT_BAD_INPUT, EXIT_REFUSED, EXIT_USAGE, EXIT_WOULD_CHANGE
+from postproc.diagnostics import OptionError, EXIT_BAD_INPUT, EXIT_REFUSED, EXIT_USAGE, EXIT_WOULD_CHANGE
 from postproc.measure.features import owners
 from postproc.geometry import Profile, segment_of
 from postproc.measure.readers.probe import read_probe
-from postproc.onmachine.probe_cycle import Cycle, plan, stations
+from postproc.onmachine.probe_cycle import RESERVED_M, Cycle, plan, stations
 from postproc.onmachine.probe_route import Surfaces
 from postproc.interpret.program import interpret_source
 from postproc.simulator import cut, generator, load, nominal, read_program
@@ -513,3 +514,50 @@ def test_the_profile_probed_is_the_simulators(tmp_path):
     assert isinstance(profile_of.profile, Profile)
     for touch, q in zip(planned.points, stations(profile_of, 5, 3.0)[0]):
         assert touch.target == pytest.approx(tuple(q))
+
+
+# -- the probe's T and M codes: a code that selects no tool or means something else is refused ---------
+
+GENERATORS = {"probe-program": [str(SAMPLES / "programs" / "hemishell.nc")],
+              "artifact-program": ["--center-x", "80", "--center-z", "30", "--artifact-radius", "25.4"]}
+
+
+@given(digits=st.text(alphabet="0123456789", min_size=1, max_size=8))
+def test_a_t_code_that_selects_no_tool_or_cancels_the_offset_is_refused(digits):
+    cycle = Cycle(tool=digits)
+    no_tool = int(digits) == 0 or (len(digits) == 4 and (digits[:2] == "00" or digits[2:] == "00"))
+    if no_tool:
+        with pytest.raises(OptionError, match=rf"--tool T{digits}: (T0 selects no tool|tool 00 is no tool|offset 00)"):
+            cycle.check()
+    else:
+        cycle.check()
+
+
+@given(code=st.integers(0, 199))
+def test_an_m_code_the_control_gives_a_meaning_cannot_switch_the_probe(code):
+    for cycle in (Cycle(probe_on=str(code)), Cycle(probe_off=f"{code:02d}")):
+        if code in RESERVED_M:
+            with pytest.raises(OptionError, match=rf"M{code:02d} .* on a FANUC control, it cannot switch the probe"):
+                cycle.check()
+        else:
+            cycle.check()
+    with pytest.raises(OptionError, match="one M code cannot switch the probe both on and off"):
+        Cycle(probe_on=str(code + 200), probe_off=f"0{code + 200}").check()
+
+
+@pytest.mark.parametrize("command", sorted(GENERATORS))
+@pytest.mark.parametrize("option, value, said", [
+    ("--tool", "T0", "--tool T0: T0 selects no tool and cancels the tool offset; give the probe's tool and offset, "
+                     "e.g. T0909"),
+    ("--tool", "t0900", "--tool T0900: offset 00 cancels the tool offset"),
+    ("--probe-on", "M30", "--probe-on M30: M30 ends the program and rewinds it on a FANUC control"),
+    ("--program-number", "0", "--program-number 0: a FANUC program number is 1 to 9999"),
+])
+def test_every_probing_program_generator_refuses_a_code_that_means_no_probe(run, tmp_path, command, option, value,
+                                                                            said):
+    target = tmp_path / "O8100.nc"
+    result = run(command, *GENERATORS[command], option, value, "-o", str(target))
+    assert result.exit_code == EXIT_BAD_INPUT
+    assert result.stdout == ""
+    assert result.stderr.startswith(f"postproc: error: {said}") and result.stderr.count("error:") == 1
+    assert not target.exists()

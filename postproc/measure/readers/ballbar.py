@@ -24,7 +24,6 @@ least 90 deg of arc. Every reader's traces are held to it (:func:`check_evidence
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -58,6 +57,9 @@ class BallbarTrace:
     feed: float | None = None
     raw: bool = False
     extras: dict[str, str] = field(default_factory=dict)
+    #: the file's line of each sample (raw form: of the first reading it averages); None when
+    #: the samples came from elsewhere (a saved model, a shop reader)
+    rows: np.ndarray | None = None
 
     @property
     def cw(self) -> bool:
@@ -171,6 +173,7 @@ def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6
     centered = table.flag("centered")
     raw = table.columns == RAW
     deviations = np.array(table.column("deviation_mm"))
+    rows = np.array([line for line, _ in table.rows], dtype=int)
     for (line, values), value in zip(table.rows, deviations):
         if abs(value) > max_deviation:
             raise table.error(f"deviation {value:g} mm is beyond {max_deviation:g} mm: not a plausible ballbar reading "
@@ -182,6 +185,7 @@ def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6
         if capture > 360.0:
             raise table.error("capture_arc_deg cannot exceed 360", table.header["capture_arc_deg"][1])
         angles, deviations = raw_samples(deviations, start, capture, direction == "cw", averaging, reporter, path)
+        rows = rows[::averaging][: len(deviations)]
     else:
         for key in ("start_angle_deg", "capture_arc_deg"):
             if key in table.header:
@@ -195,12 +199,12 @@ def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6
             raise table.error(f"angle {written[row]:g} deg{same} again (first on line {table.rows[first][0]})",
                               table.rows[row][0])
     return make_trace(path, radius, direction, angles, deviations, centre, feed, centered, raw, table.extras,
-                      averaging if raw else 1)
+                      averaging if raw else 1, rows)
 
 
 def make_trace(path: str, radius: float, direction: str, angles, deviations, centre: tuple[float, float] = (0.0, 0.0),
                feed: float | None = None, centered: bool = False, raw: bool = False,
-               extras: dict[str, str] | None = None, averaging: int = 1) -> BallbarTrace:
+               extras: dict[str, str] | None = None, averaging: int = 1, rows=None) -> BallbarTrace:
     """A trace from its samples as any reader finds them: angles (degrees, any order, taken
     modulo 360) and deviations (mm). Sorts them, holds them to the minimum evidence and removes
     the set-up centre (unless ``centered``) as :func:`read_ballbar` does; for shop readers."""
@@ -209,7 +213,8 @@ def make_trace(path: str, radius: float, direction: str, angles, deviations, cen
     deviations = np.asarray(deviations, dtype=float)
     order = np.argsort(angles, kind="stable")
     trace = BallbarTrace(path, float(radius), direction, (float(centre[0]), float(centre[1])), angles[order],
-                         deviations[order], (0.0, 0.0), centered, feed, raw, dict(extras or {}))
+                         deviations[order], (0.0, 0.0), centered, feed, raw, dict(extras or {}),
+                         None if rows is None else np.asarray(rows)[order])
     check_evidence(trace, averaging)
     if centered:
         return trace
@@ -251,9 +256,9 @@ def pair(traces: list[BallbarTrace]) -> tuple[BallbarTrace, BallbarTrace]:
     if set(by_direction) != {"ccw", "cw"}:
         raise MeasurementError("the two traces must be one ccw (G03) and one cw (G02) run", Location(traces[1].path))
     ccw, cw = by_direction["ccw"], by_direction["cw"]
-    if not math.isclose(ccw.radius, cw.radius, rel_tol=1e-9, abs_tol=1e-9) or ccw.centre != cw.centre:
+    if ballbar_fit.mount_key(ccw) != ballbar_fit.mount_key(cw):
         raise MeasurementError(
-            f"the traces are of different tests: radius {ccw.radius:g}/{cw.radius:g} mm, centre {ccw.centre}/{cw.centre}",
-            Location(cw.path),
-        )
+            f"the ccw and the cw trace are of different tests (a test is one radius and one centre): "
+            f"{ballbar_fit.tests_text([[ccw], [cw]])}; give the traces of one test, or correct the radius or "
+            "centre in a file's header", Location(cw.path))
     return ccw, cw

@@ -1,0 +1,69 @@
+"""Machine profiles written as TOML (postproc.machine.profile): whatever text a name or a string
+key holds, the file written reads back with tomllib as that text."""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+
+import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
+
+from postproc.machine.profile import DEFAULT, from_mapping, starter, to_toml, toml_string
+
+#: any text a command line or a profile file can hold: every code point but the lone surrogates
+TEXT = st.text(st.characters(exclude_categories=("Cs",)), max_size=40)
+NASTY = st.text(st.sampled_from(['"', "\\", "\n", "\r", "\t", "\b", "\f", "\x00", "\x1f", "\x7f", "'", "#", "=",
+                                 "[", "]", "\u2028", "\ufeff", "a", "é", " "]), max_size=20)
+
+
+@given(st.one_of(TEXT, NASTY))
+def test_a_toml_string_reads_back_as_its_text(text):
+    assert tomllib.loads(f"key = {toml_string(text)}\n") == {"key": text}
+
+
+@given(st.one_of(TEXT, NASTY))
+def test_a_starter_profile_reads_back_as_the_default_under_any_name(name):
+    data = tomllib.loads(starter(name))
+    assert data["name"] == name
+    assert from_mapping(data) == dataclasses.replace(DEFAULT, name=name)
+
+
+@given(name=st.one_of(TEXT, NASTY), controller=st.one_of(TEXT, NASTY))
+def test_a_profile_shown_reads_back_as_itself(name, controller):
+    profile = dataclasses.replace(DEFAULT, name=name, controller=controller)
+    assert from_mapping(tomllib.loads(to_toml(profile))) == profile
+
+
+def test_a_lone_surrogate_is_refused_not_written():
+    with pytest.raises(ValueError, match="not UTF-8 text"):
+        toml_string("lathe\udcff")
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(name=st.one_of(TEXT, NASTY).filter(lambda text: "\x00" not in text))
+def test_profile_init_writes_a_file_that_reads_back_with_the_name_given(run, tmp_path_factory, name):
+    """Through the command line (an argument cannot hold NUL)."""
+    target = tmp_path_factory.mktemp("init") / "lathe.toml"
+    result = run("profile", "init", str(target), "--name", name)
+    if not name.strip():  # empty: a shell variable never set (exit 2); blank: no name (exit 3)
+        assert (result.exit_code, result.stdout) == (2 if name == "" else 3, "")
+        assert result.stderr == ("postproc: error: --name is empty (a shell variable that is not set?): give a value, "
+                                 "or leave the option out (nothing was written)\n" if name == "" else
+                                 f"postproc: error: --name {name!r}: a profile's name cannot be blank\n")
+        assert not target.exists()
+        return
+    assert (result.exit_code, result.stdout) == (0, "")
+    assert result.stderr.startswith(f"{target}: starter machine profile written")
+    assert tomllib.loads(target.read_text(encoding="utf-8"))["name"] == name
+    shown = run("profile", "show", "--machine", str(target))
+    assert shown.exit_code == 0 and shown.stderr == ""
+
+
+def test_profile_init_refuses_a_name_that_is_not_text(run, tmp_path):
+    target = tmp_path / "lathe.toml"
+    result = run("profile", "init", str(target), "--name", "lathe\udcff")
+    assert (result.exit_code, result.stdout) == (3, "")
+    assert result.stderr == ("postproc: error: the profile's name (--name, else the file's name): 'lathe\\udcff' "
+                             "holds a byte that is not UTF-8 text; give --name as text\n")
+    assert not target.exists()
