@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 import operator
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Callable, Iterable, Iterator
 
 import numpy as np
@@ -206,8 +207,9 @@ class Entry:
     def edited(self) -> bool:
         return any(edit is not None for edit in self.edits)
 
-    @property
+    @cached_property
     def motion(self) -> bool:
+        """Whether the step moves the tool along the program (asked of every step several times)."""
         return any(move.role in (RUN, CONTOUR, CORNER) for move in self.step.moves)
 
 
