@@ -207,3 +207,28 @@ def test_bends_measured_together_are_each_target_s_own():
     measure_bends(targets)
     assert [target.bend for target in targets] == alone
     assert alone[0] < 1e-12 < min(alone[1:])
+
+
+_coordinate = st.floats(-500.0, 500.0, allow_nan=False)
+
+
+@given(st.lists(st.tuples(_coordinate, _coordinate), min_size=3, max_size=40),
+       st.lists(st.tuples(_coordinate, _coordinate, st.floats(0.0, 600.0), st.floats(0.0, 0.05)), min_size=1, max_size=4),
+       st.sampled_from([0.0005, 0.001, 0.01]))
+@settings(max_examples=200, deadline=None)
+def test_the_radial_bound_of_each_candidate_arc_is_the_farthest_sample_outside_its_ring(points, arcs, tolerance):
+    """The bound reads only each ring's nearest and farthest sample: bit for bit what every
+    sample's distance outside the ring gives."""
+    from postproc.compensate.segmenter import Cut
+
+    target = radial_target(HEMISHELL, 0.0)
+    segmenter = Segmenter(target, Limits(tolerance, MM))
+    cuts = [Cut(0.0, 0.0, 1.0, 1.0, xc, zc, True) for xc, zc, _, _ in arcs]
+    rings = [(r, r + spread) for _, _, r, spread in arcs]
+    samples = np.array(points)
+    inner = samples[1:-1]
+    expected = []
+    for (xc, zc, _, _), (low, high) in zip(arcs, rings):
+        distance = np.hypot(inner[:, 0] - xc, inner[:, 1] - zc)
+        expected.append(float(np.maximum(np.maximum(distance - high, low - distance), 0.0).max()) - 0.05 * tolerance)
+    assert segmenter._radial_bounds(cuts, rings, samples) == expected
