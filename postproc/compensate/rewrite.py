@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 import operator
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Callable, Iterable, Iterator
 
 import numpy as np
@@ -43,7 +44,7 @@ from .emitter import Style, Writer, with_motion_code
 from .farthest import farthest, within
 from . import monotone
 from .request import Request
-from ..geometry import Arc, Line, segment_of
+from ..geometry import Arc, Line, reversal_params_of, segment_of
 from ..interpret.interpreter import Interpreter
 from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
 from ..syntax.reader import read_blocks
@@ -90,18 +91,19 @@ def _travel(dx: float, dz: float, last: tuple[int, int], steps: tuple[float, flo
     return x, z
 
 
-def pieces(move: Move, last: tuple[int, int] = (0, 0), steps: tuple[float, float] = STEPS) -> list[Piece]:
+def pieces(move: Move, last: tuple[int, int] = (0, 0), steps: tuple[float, float] = STEPS,
+           turns: list[float] | None = None) -> list[Piece]:
     """A move split where an axis reverses, so direction-dependent corrections act per side.
 
     ``last`` is the direction each axis last travelled in before the move; ``steps`` the
     output grid's steps in x and z (radius mm). Only reversals the grid can see count
-    (:func:`_turns`).
+    (:func:`_turns`; ``turns``: what it gives for an arc move, when already worked out).
     """
     segment = segment_of(move)
     if isinstance(segment, Line):
         bounds = [0.0, 1.0]
     else:
-        bounds = [0.0, *_turns(segment, steps), 1.0]
+        bounds = [0.0, *(_turns(segment, steps) if turns is None else turns), 1.0]
     result = []
     for a, b in zip(bounds, bounds[1:]):
         if isinstance(segment, Line) or (len(bounds) == 2 and segment.r1 is None):
@@ -114,7 +116,7 @@ def pieces(move: Move, last: tuple[int, int] = (0, 0), steps: tuple[float, float
     return result
 
 
-def _turns(arc: Arc, steps: tuple[float, float]) -> list[float]:
+def _turns(arc: Arc, steps: tuple[float, float], found: list[float] | None = None) -> list[float]:
     """The parameters where an axis of the arc reverses, as far as the output grid can see.
 
     A reversal counts when the axis travels at least half a grid step on either side of it
@@ -122,8 +124,11 @@ def _turns(arc: Arc, steps: tuple[float, float]) -> list[float]:
     step each way. Less is below what the control commands: an R arc whose end lies a hair
     past an apex (its centre, worked out from R, sits nanometres off the end's axis) turns
     the axis back by picometres, and a piece that short has no block of its own.
+
+    ``found``: the arc's :meth:`Arc.reversal_params`, when already worked out.
     """
-    found = arc.reversal_params()
+    if found is None:
+        found = arc.reversal_params()
     if not found:
         return found
     length = arc.length
@@ -151,9 +156,10 @@ def _turns(arc: Arc, steps: tuple[float, float]) -> list[float]:
     return kept
 
 
-def travel_after(move: Move, last: tuple[int, int], steps: tuple[float, float] = STEPS) -> tuple[int, int]:
+def travel_after(move: Move, last: tuple[int, int], steps: tuple[float, float] = STEPS,
+                 turns: list[float] | None = None) -> tuple[int, int]:
     """The direction each axis last travelled in, once ``move`` has run: an arc's is that of
-    its last piece (as :func:`pieces` splits it).
+    its last piece (as :func:`pieces` splits it; ``turns`` as there).
 
     Worked out with floats, not the geometry's arrays: it runs for every move of the
     program, compensated or not."""
@@ -166,7 +172,8 @@ def travel_after(move: Move, last: tuple[int, int], steps: tuple[float, float] =
     arc = segment_of(move)
     if arc.sweep == 0.0:
         return last
-    turns = _turns(arc, steps)
+    if turns is None:
+        turns = _turns(arc, steps)
     (x0, z0) = arc.part(turns[-1], 1.0).start if turns else (move.x0, move.z0)
     return _travel(move.x1 - x0, move.z1 - z0, last, steps)
 
@@ -210,8 +217,9 @@ class Entry:
     def edited(self) -> bool:
         return any(edit is not None for edit in self.edits)
 
-    @property
+    @cached_property
     def motion(self) -> bool:
+        """Whether the step moves the tool along the program (asked of every step several times)."""
         return any(move.role in (RUN, CONTOUR, CORNER) for move in self.step.moves)
 
 
@@ -358,6 +366,7 @@ class Rewriter:
     def _correct(self, batch: list[Entry]) -> None:
         """Give each motion step of the batch its edits (None for a move left as it is)."""
         wanted: list[tuple[Entry, int, list[Piece]]] = []
+        turns = self._turns_of(batch)
         for entry in batch:
             if not entry.motion:
                 continue
@@ -365,10 +374,11 @@ class Rewriter:
             entry.edits = [None] * len(step.moves)
             steps = self._steps(step)
             for index, move in enumerate(step.moves):
+                mine = turns.get(id(move))
                 if self._candidate(step, move):
-                    wanted.append((entry, index, pieces(move, self._last_travel, steps)))
+                    wanted.append((entry, index, pieces(move, self._last_travel, steps, mine)))
                 if move.role in (RUN, CONTOUR, CORNER):
-                    self._last_travel = travel_after(move, self._last_travel, steps)
+                    self._last_travel = travel_after(move, self._last_travel, steps, mine)
         if not wanted:
             return
         every = [piece for _, _, parts in wanted for piece in parts]
@@ -408,6 +418,23 @@ class Rewriter:
                 if type(edit.targets[0].nominal) is Line:
                     lines.append(edit.targets[0])
         measure_bends(lines)
+
+    def _turns_of(self, batch: list[Entry]) -> dict[int, list[float]]:
+        """:func:`_turns` of every arc move of the batch's motion steps (by ``id`` of the move),
+        their reversal parameters found in one array pass: :func:`pieces` and
+        :func:`travel_after` both need them, for every arc of the program."""
+        arcs: list[Arc] = []
+        owners: list[tuple[Move, tuple[float, float]]] = []
+        for entry in batch:
+            if not entry.motion:
+                continue
+            steps = self._steps(entry.step)
+            for move in entry.step.moves:
+                if move.kind == ARC and move.xc is not None and move.known and move.exact:
+                    arcs.append(segment_of(move))
+                    owners.append((move, steps))
+        return {id(move): _turns(arc, steps, found)
+                for (move, steps), arc, found in zip(owners, arcs, reversal_params_of(arcs))}
 
     # ------------------------------------------------------------------ joins
 

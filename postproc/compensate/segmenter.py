@@ -480,8 +480,10 @@ class Segmenter:
         centres = np.array([(cut.xc, cut.zc) for cut in cuts])
         rings = np.array(rings)
         distance = np.hypot(inner[None, :, 0] - centres[:, None, 0], inner[None, :, 1] - centres[:, None, 1])
-        outside = np.maximum(np.maximum(distance - rings[:, 1:2], rings[:, 0:1] - distance), 0.0)
-        return (outside.max(axis=1) - 0.05 * self.tol).tolist()
+        # the farthest sample outside a ring and the nearest inside it decide: a rounded
+        # difference with a fixed ring radius grows with the distance, so max(d - r) is max(d) - r
+        outside = np.maximum(np.maximum(distance.max(axis=1) - rings[:, 1], rings[:, 0] - distance.min(axis=1)), 0.0)
+        return (outside - 0.05 * self.tol).tolist()
 
     def _centre_guess(self, points: np.ndarray, i: int, j: int):
         if isinstance(self.frame.nominal, Arc) and j - i >= 0.5 * self.last:

@@ -83,6 +83,10 @@ class Line:
         return Line(self.x1, self.z1, self.x0, self.z0)
 
 
+QUADRANTS = tuple(range(-8, 9))  #: the multiples of 90 deg where an arc's axis may reverse, k and k + 4 alike
+_QUARTER_TURNS = np.array(QUADRANTS) * (math.pi / 2)
+
+
 @dataclass(frozen=True, slots=True)
 class Arc:
     """An arc about a centre; when its end radius ``r1`` differs from its start radius (within
@@ -199,19 +203,22 @@ class Arc:
         p = as_points(points)
         return np.hypot(p[:, 0] - self.xc, p[:, 1] - self.zc) - self.r
 
-    def reversal_params(self) -> list[float]:
+    def reversal_params(self, quadrants: tuple[int, ...] = QUADRANTS) -> list[float]:
         """Parameters strictly inside the arc where an axis reverses: theta a multiple of 90 deg on a
         circle; on a spiral (``r1``) that angle plus ``atan(dr / (r(t) sweep))``, where the drift of
         the radius cancels the turn (``d(r cos theta)/dt = 0``, likewise for z). An I/K arc whose
         radius drifts by a micrometre over a short sweep has its apex tens of micrometres from the
-        quadrant point: where the control reverses the axis, and the R form of the same arc does."""
+        quadrant point: where the control reverses the axis, and the R form of the same arc does.
+
+        ``quadrants``: the multiples k of 90 deg tried (:func:`reversal_params_of` leaves out
+        those that cannot fall inside the sweep)."""
         span = abs(self.sweep)
         if span == 0.0:
             return []
         sign = 1.0 if self.sweep >= 0 else -1.0
         drift = 0.0 if self.r1 is None else self.r1 - self.r
         found = []
-        for k in range(-8, 9):
+        for k in quadrants:
             theta = k * math.pi / 2
             along = (sign * (theta - self.theta0)) % TAU
             for _ in range(3 if drift else 0):  # the offset depends on r(t): a fixed point, settled in three
@@ -230,6 +237,31 @@ class Arc:
 
 
 Segment = Line | Arc
+
+
+def reversal_params_of(arcs: list[Arc]) -> list[list[float]]:
+    """:meth:`Arc.reversal_params` of many arcs, the same floats: one array pass finds, for
+    each arc, the quarter turns that can fall inside its sweep (a spiral moves its apex by
+    ``atan(dr / (r sweep))``, never more than ``|dr| / (r |sweep|)``), and only those are
+    worked out one by one. A program's arcs mostly span a few degrees and reach none."""
+    if not arcs:
+        return []
+    theta0 = np.array([arc.theta0 for arc in arcs])
+    sweep = np.array([arc.sweep for arc in arcs])
+    drift = np.array([0.0 if arc.r1 is None else arc.r1 - arc.r for arc in arcs])
+    smallest = np.array([arc.r if arc.r1 is None else min(arc.r, arc.r1) for arc in arcs])
+    span = np.abs(sweep)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        reach = np.abs(drift) / (smallest * span)
+    reach = np.where(np.isfinite(reach) & (smallest > 0.0), reach, math.inf) + 1e-6
+    sign = np.where(sweep >= 0, 1.0, -1.0)
+    along = np.remainder(sign[:, None] * (_QUARTER_TURNS[None, :] - theta0[:, None]), TAU)
+    near = (along < (span + reach)[:, None]) | (along > (TAU - reach)[:, None])
+    near &= (span > 0.0)[:, None]
+    found: list[list[float]] = [[] for _ in arcs]
+    for row in np.flatnonzero(near.any(axis=1)).tolist():
+        found[row] = arcs[row].reversal_params(tuple(np.asarray(QUADRANTS)[near[row]].tolist()))
+    return found
 
 
 @dataclass(frozen=True)

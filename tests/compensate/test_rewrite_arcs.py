@@ -241,3 +241,36 @@ def test_a_target_no_blocks_can_follow_names_the_tolerance_without_a_remedy_in_i
     with pytest.raises(PlanError) as info:
         plan(Target(line, t, d), Limits(0.001, Grid(3, False, True)))
     assert (info.value.limit, info.value.needed) == (TOLERANCE, None)
+
+
+_grid_values = st.integers(-200_000, 200_000).map(lambda n: n / 2000.0)  # radius mm on a 0.001 mm diameter grid
+
+
+@given(st.lists(st.tuples(_grid_values, _grid_values, _grid_values, _grid_values,
+                          st.integers(-40_000, 40_000), st.integers(-40_000, 40_000), st.booleans()),
+                min_size=1, max_size=8),
+       st.sampled_from([(0.0005, 0.001), (0.00005, 0.0001), (0.0127, 0.0254)]),
+       st.sampled_from([(0, 0), (1, -1), (-1, 1)]))
+@settings(max_examples=200, deadline=None)
+def test_an_arc_batchs_reversals_found_at_once_split_and_steer_its_moves_as_one_by_one(arcs, steps, last):
+    """I/K arcs (their ends and centres on the grid, their radius drifting as a control's does):
+    the pieces and the travel after each move, from reversals found for the whole batch in one
+    array pass, are those worked out move by move."""
+    from postproc.compensate.rewrite import pieces, travel_after
+    from postproc.geometry import reversal_params_of
+    from postproc.interpret.motion import Move
+
+    moves = [Move(ARC, n + 1, x0, z0, x1, z1, x0 + i / 1000.0, z0 + k / 1000.0, cw, feed=0.1)
+             for n, (x0, z0, x1, z1, i, k, cw) in enumerate(arcs) if (i, k) != (0, 0)]
+    assume(moves)
+    found = reversal_params_of([segment_of(move) for move in moves])
+    one_by_one, batched = last, last
+    for move, reversals in zip(moves, found):
+        turns = _turns(segment_of(move), steps, reversals)
+        assert turns == _turns(segment_of(move), steps)
+        alone = pieces(move, one_by_one, steps)
+        together = pieces(move, batched, steps, turns)
+        assert [(p.segment, p.t.tolist(), p.x_direction, p.z_direction) for p in alone] == \
+               [(p.segment, p.t.tolist(), p.x_direction, p.z_direction) for p in together]
+        one_by_one, batched = travel_after(move, one_by_one, steps), travel_after(move, batched, steps, turns)
+        assert one_by_one == batched

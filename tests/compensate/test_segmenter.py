@@ -237,3 +237,28 @@ def test_a_whole_circle_in_one_block_is_planned_within_tolerance_in_every_mode(t
         assert cuts[0].start == cuts[-1].end == MM.snap(*target.start)
         assert len(cuts) >= 2 and all(cut.start != cut.end for cut in cuts)
         assert mode != "line" or not any(cut.is_arc for cut in cuts)
+
+
+_coordinate = st.floats(-500.0, 500.0, allow_nan=False)
+
+
+@given(st.lists(st.tuples(_coordinate, _coordinate), min_size=3, max_size=40),
+       st.lists(st.tuples(_coordinate, _coordinate, st.floats(0.0, 600.0), st.floats(0.0, 0.05)), min_size=1, max_size=4),
+       st.sampled_from([0.0005, 0.001, 0.01]))
+@settings(max_examples=200, deadline=None)
+def test_the_radial_bound_of_each_candidate_arc_is_the_farthest_sample_outside_its_ring(points, arcs, tolerance):
+    """The bound reads only each ring's nearest and farthest sample: bit for bit what every
+    sample's distance outside the ring gives."""
+    from postproc.compensate.segmenter import Cut
+
+    target = radial_target(HEMISHELL, 0.0)
+    segmenter = Segmenter(target, Limits(tolerance, MM))
+    cuts = [Cut(0.0, 0.0, 1.0, 1.0, xc, zc, True) for xc, zc, _, _ in arcs]
+    rings = [(r, r + spread) for _, _, r, spread in arcs]
+    samples = np.array(points)
+    inner = samples[1:-1]
+    expected = []
+    for (xc, zc, _, _), (low, high) in zip(arcs, rings):
+        distance = np.hypot(inner[:, 0] - xc, inner[:, 1] - zc)
+        expected.append(float(np.maximum(np.maximum(distance - high, low - distance), 0.0).max()) - 0.05 * tolerance)
+    assert segmenter._radial_bounds(cuts, rings, samples) == expected

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from postproc.geometry import Arc
+from postproc.geometry import QUADRANTS, Arc, reversal_params_of
 
 
 def turning_points(arc: Arc, samples: int = 100_001) -> list[tuple[int, float]]:
@@ -50,3 +50,21 @@ def test_the_apex_of_a_short_i_k_arc_whose_radius_drifts_is_where_its_r_form_has
     spiral = Arc.through((5.999, 0.131), (5.999, -0.079), (0.0, 0.0), cw=False)
     (t,) = spiral.reversal_params()
     assert spiral.point_at(np.array([t]))[0, 1] == pytest.approx(0.026, abs=0.0005)
+
+
+_quarter = st.sampled_from([k * math.pi / 2 for k in QUADRANTS])
+_start = st.one_of(st.floats(-math.pi, math.pi), _quarter,  # on a quadrant point, or a hair either side of one
+                   st.builds(lambda a, e: a + e, _quarter, st.floats(-1e-6, 1e-6)))
+_arcs = st.builds(
+    lambda theta0, span, cw, radius, drift: Arc(1.0, -2.0, radius, theta0, span if cw else -span,
+                                                radius + drift if drift and radius + drift > 0 else None),
+    _start, st.one_of(st.just(0.0), st.floats(1e-9, 2 * math.pi), st.floats(1e-9, 1e-3)), st.booleans(),
+    st.one_of(st.floats(0.001, 500.0), st.floats(1e-6, 1e-3)),
+    st.one_of(st.just(0.0), st.floats(-0.01, 0.01), st.floats(-1e-6, 1e-6)))
+
+
+@given(st.lists(_arcs, max_size=12))
+@settings(max_examples=300, deadline=None)
+def test_reversals_of_many_arcs_at_once_are_those_of_each_arc_bit_for_bit(arcs):
+    """The array pass leaves out only the quarter turns that cannot fall inside an arc's sweep."""
+    assert reversal_params_of(arcs) == [arc.reversal_params() for arc in arcs]
