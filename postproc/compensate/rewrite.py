@@ -636,6 +636,7 @@ class Rewriter:
                 self._said_macro(block, word, "its macro values are written as numbers (--macro-values numbers): "
                                               "the block no longer follows the variables it reads")
         cuts = self._cuts(entry)
+        _one_block_for_other_axes(block, len(cuts), self.profile, self.file, joined=True)  # joins may have split it
         self._within_limits(step, cuts)
         writer = Writer(self._grid(step), self.profile.gcode_system, step.modal.absolute, entry.axes)
         lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
@@ -731,6 +732,8 @@ class Rewriter:
                     edit = entry.edits[index] = _as_it_is(move)
                 if edit is not None:
                     edit.plans = [self._plan(step, target, edit.held.get(i)) for i, target in enumerate(edit.targets)]
+            _one_block_for_other_axes(step.block, sum(len(plan.cuts) for edit in entry.edits if edit is not None
+                                                      for plan in edit.plans), self.profile, self.file)
         except UnplannableBlock as exc:
             if not self.request.keep_unplannable:
                 raise
@@ -1116,6 +1119,41 @@ _REMEDIES = {
     INTERFERENCE: "the tool's own nose radius as nose_radius_mm in the machine profile",
 }
 _WORDS_OF = {RESOLUTION: "XZUW", RADIUS_CHECK: "RIK", TOLERANCE: "XZUW", BLOCK_TIME: "F", INTERFERENCE: "XZUW"}
+
+
+def _one_block_for_other_axes(block: Block, count: int, profile: MachineProfile, file: str, joined: bool = False) -> None:
+    """Refuse to split a block that also moves another axis of the machine (C, Y, B...).
+
+    Its X and Z are corrected and may become several blocks; the other axis's word would then
+    stand on the first of them alone, so that axis would finish its whole move in the first
+    piece (two turns of C in a few microns of X) instead of moving with X and Z to the end.
+    No share of it along the pieces is what the program meant either (a C axis in
+    interpolation with X and Z follows the block's own path, not the corrected pieces), so
+    such a block is written as one block or not at all. ``count``: the blocks planned for it;
+    ``joined``: counted after the joins with its neighbours, too late to leave it as it is."""
+    others = set(profile.axes) - set("XZ")
+    if not others:
+        return
+    if count <= 1:
+        return
+    word = next((w for w in block.words if w.letter in others), None)
+    if word is None:
+        return
+    cause = (f"its {word.letter} move would stand on the first of the {count} blocks that replace it, "
+             f"and {word.letter} would finish its whole move there")
+    remedy = f"give the {word.letter} move a block of its own in the program"
+    if joined:  # its corrected start or end meets a neighbour's through a block of its own
+        cause += " (one of them joins it to its neighbour's corrected path)"
+    else:
+        remedy += ", or a wider --tolerance that keeps this block one move, or --keep-unplannable to leave such " \
+                  "blocks uncompensated"
+    raise UnplannableBlock(
+        f"block cannot be compensated: {cause} ({OTHER_AXIS}); to go on, {remedy}",
+        Location(file, block.line, word.col + 1, block.text), OTHER_AXIS, f"{cause} ({OTHER_AXIS})")
+
+
+#: The limit a block moving another axis meets when its correction needs more than one block.
+OTHER_AXIS = "another axis in the block"
 
 
 _REWRITTEN = frozenset("GXZUWIKR") | {",C", ",R", ",A"}  #: words a replacement writes anew (the rest as written)

@@ -8,9 +8,13 @@ from __future__ import annotations
 
 from . import gcodes as G
 from .motion import CYCLE, Move, RAPID, REPLAY, Step
-from ..diagnostics import InterpretationError, Reporter
+from ..diagnostics import InterpretationError, Reporter, SafetyError
 from ..syntax.blocks import Block
 from .state import _Capture, _Contour, _Words
+
+
+#: The cycles that need their contour to run one way (FANUC alarm PS0064).
+_ONE_WAY = (G.ROUGH_TURN, G.ROUGH_FACE)
 
 
 class ContourCycles:
@@ -55,9 +59,27 @@ class ContourCycles:
             return Step(block, moves, self.modal, interpreted=False)
         if recorded is None:
             recorded = self._reread_contour(p, q, p_line, q_line, block)
+        elif meaning in _ONE_WAY and recorded.meaning != meaning:
+            self._roughed_twice(block, name, recorded)
         if meaning == G.FINISH:
             moves = self._replay(recorded, block)
         return Step(block, moves, self.modal)
+
+    def _roughed_twice(self, block: Block, name: str, recorded: _Contour) -> None:
+        """A G71/G72 roughing a contour another kind of cycle ran first. Compensation holds a
+        contour to the one-way rule of the cycle it follows (:mod:`postproc.compensate.monotone`);
+        the contour was written under the other cycle's rule (or none, after a G73 or a G70),
+        and the rules differ in the axes they hold (G71 type II holds Z, G72 type II holds X):
+        the written contour may turn back where this cycle alarms (PS0064). Refused when
+        compensating; as it stands, the program is the control's to judge."""
+        if not self.rewriting:
+            return
+        other = {G.ROUGH_TURN: "G71", G.ROUGH_FACE: "G72", G.PATTERN: "G73", G.FINISH: "G70"}.get(recorded.meaning, "another cycle")
+        raise SafetyError(
+            f"{name}: its contour N{recorded.p}..N{recorded.q} was run first by the {other} on line "
+            f"{recorded.cycle_line}; a compensated contour is held to the one-way rule of the cycle that runs it "
+            f"first, so under this {name} it may turn back (FANUC alarm PS0064): give each cycle a contour of its own",
+            self._location(block, self._col(block, "P")))
 
     def _label_line(self, block: Block, letter: str, label: int, name: str) -> int:
         count = self.labels.counts.get(label, 0)

@@ -53,6 +53,7 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
         reread=None,
         fast: bool = True,
         refuse_ambiguous_units: bool = False,
+        rewriting: bool = False,
     ):
         self.profile = profile
         self.reporter = reporter if reporter is not None else Reporter()
@@ -60,6 +61,7 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
         self._labels = labels  # the program's LabelIndex, or a callable that scans for it on first use
         self._fast = fast  # ordinary blocks take the fast path (tests compare it with the general one)
         self._refuse_units = refuse_ambiguous_units  # a program that mixes decimal points with plain numbers
+        self.rewriting = rewriting  # the steps are for compensation: what cannot be written safely is refused
         self._memo: dict[tuple, tuple[Modal, Modal]] = {}
         self._interned: dict[Modal, Modal] = {}
         self._jumps: bool | None = None  # whether any label may be a jump target

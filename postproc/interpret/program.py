@@ -72,7 +72,7 @@ def _prepare(source: Source, profile: MachineProfile, reporter: Reporter | None,
                 yield block
 
     interpreter = Interpreter(profile, reporter, source.name, labels=lambda: source.labels, reread=reread,
-                              refuse_ambiguous_units=rewriting)
+                              refuse_ambiguous_units=rewriting, rewriting=rewriting)
     return interpreter, read_blocks(source.lines(), source.name, reporter, light=light, label_skip=profile.label_skip)
 
 

@@ -78,3 +78,31 @@ def test_the_same_taper_the_other_way_is_written(run, sample_model, tmp_path):
     assert result.exit_code == 0, result.stderr
     assert turn_backs(result.stdout) == []
     assert "N10 G00 X19.991\n" in result.stdout  # the approach ends where the corrected contour starts, in X
+
+
+SHARED = ("G18 G21 G99\nG00 X100. Z5.\n{first} P10 Q20 U0.2 W0.1 F0.2\nN10 G00 X20.\nG01 Z-10. F0.1\nX40. Z-30.\n"
+          "Z-45.\nN20 X100.\nG00 X100. Z5.\n{second} P10 Q20 U0.2 W0.1 F0.2\nG70 P10 Q20\nM30\n")
+
+
+@pytest.mark.parametrize("first, second, refused", [
+    ("G71", "G72", True), ("G72", "G71", True), ("G73", "G71", True), ("G73", "G72", True),
+    ("G71", "G71", False), ("G72", "G72", False), ("G71", "G73", False),
+])
+def test_a_contour_run_by_two_kinds_of_cycle_is_held_to_both_or_refused(run, sample_model, tmp_path, first, second,
+                                                                        refused):
+    """A compensated contour is held to the one-way rule of the cycle that runs it first; a later
+    G71 or G72 of another kind would judge it by another rule (G71 type II holds Z, G72 type II
+    X; a G73 holds none), so compensating it is refused (exit 4, at the later cycle's P word,
+    nothing on stdout). The same kind again, or a G73 after, needs nothing more. ``check``
+    leaves the program as it stands to the control."""
+    program = tmp_path / "shared.nc"
+    program.write_text(SHARED.format(first=first, second=second))
+    assert run("check", str(program)).exit_code == 0
+    result = run("compensate", str(program), "--model", str(sample_model))
+    if refused:
+        assert result.exit_code == 4 and result.stdout == ""
+        assert f"{program}:10:5: error: {second}: its contour N10..N20 was run first by the {first} on line 3" \
+            in result.stderr
+    else:
+        assert result.exit_code == 0, result.stderr
+        assert turn_backs(result.stdout) == []

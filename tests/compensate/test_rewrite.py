@@ -363,3 +363,32 @@ def test_the_self_check_reads_the_replacement_as_the_profiles_machine(axes, word
     out, rewriter = rewrite(text, radial(0.002), profile=profile)
     assert rewriter.replaced >= 1 and rewriter.largest == pytest.approx(0.002)
     assert out.count(word) == 2
+
+
+def wave(amplitude_mm):
+    """A corrector that bends every arc and line by a half sine along it, so that no single
+    block holds it within a micron: the move is split."""
+
+    def correct(piece):
+        t = np.linspace(0.0, 1.0, len(piece.points))
+        return np.column_stack([amplitude_mm * np.sin(np.pi * t), np.zeros_like(t)])
+
+    return correct
+
+
+@pytest.mark.parametrize("axes, word", [("XZC", "C720."), ("XYZ", "Y10."), ("XZB", "B-5.")])
+@pytest.mark.parametrize("motion", ["G01 X60. Z-40.", "G02 X60. Z-40. R50."])
+def test_a_block_that_moves_another_axis_is_never_split(axes, word, motion):
+    """The other axis's word would stand on the first piece alone and finish its whole move
+    there: such a block is written as one block with its word, or refused (exit 4) naming the
+    word; with --keep-unplannable it is left as it was."""
+    profile = replace(DEFAULT, axes=axes)
+    text = f"G18 G21 G99\nG00 X20. Z5.\nG01 Z0. F0.1\n{motion} {word}\nG00 X100.\n"
+    with pytest.raises(SafetyError) as refused:
+        rewrite(text, wave(0.01), profile=profile, tolerance=0.001)
+    assert f"its {word[0]} move would stand on the first of the" in refused.value.message
+    assert refused.value.location.line == 4 and refused.value.location.col == len(motion) + 2
+    out, rewriter = rewrite(text, wave(0.01), profile=profile, tolerance=0.001, keep_unplannable=True)
+    assert f"{motion} {word}\n" in out and rewriter.unplannable == [(4, "another axis in the block")]
+    out, _ = rewrite(text, radial(0.002), profile=profile, tolerance=0.001)  # a constant shift: one block
+    assert out.count(word) == 1

@@ -63,7 +63,7 @@ def _cycles(program) -> list[tuple[str, str, list]]:
             continue
         p, q = int(float(words["P"])), int(float(words["Q"]))
         contour = []
-        for later in program[index + 1 :]:
+        for later in program[index + 1 :] + program[:index]:  # after the cycle, or placed before it
             if not contour and later.block.label != p:
                 continue
             contour.append(later)
