@@ -135,7 +135,24 @@ def from_mapping(data: dict[str, Any], origin: str = "<profile>", text: str | No
         raise OptionError("gcode_system must be A, B or C", at("gcode_system"))
     if profile.input_increment not in INCREMENTS:
         raise OptionError(f"input_increment must be one of {', '.join(INCREMENTS)}", at("input_increment"))
+    for unit, inch in (("mm", False), ("inch", True)):
+        _readable_decimals(profile, unit, inch, at(f"output_decimals_{unit}" if f"output_decimals_{unit}" in values
+                                                   else "input_increment"))
     return profile
+
+
+def _readable_decimals(profile: MachineProfile, unit: str, inch: bool, where: Location) -> None:
+    """Refuse output decimals finer than the control's least input increment: it would read a
+    written ``X19.968`` under IS-A (0.01 mm) as another number or alarm, and the block read back
+    here would not be the block the control runs."""
+    increment = INCREMENTS[profile.input_increment][1 if inch else 0]
+    finest = round(-math.log10(increment))
+    decimals = profile.output_decimals_inch if inch else profile.output_decimals_mm
+    if decimals > finest:
+        raise OptionError(f"output_decimals_{unit} = {decimals} writes {10.0 ** -decimals:g} {unit}, finer than the "
+                          f"least input increment of {profile.input_increment} ({increment:g} {unit}), which the "
+                          f"control cannot read; set output_decimals_{unit} = {finest}, or the "
+                          f"control's own increment system as input_increment", where)
 
 
 def _checked(name: str, value: Any, where: Location) -> Any:

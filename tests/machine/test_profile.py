@@ -67,3 +67,23 @@ def test_profile_init_refuses_a_name_that_is_not_text(run, tmp_path):
     assert result.stderr == ("postproc: error: the profile's name (--name, else the file's name): 'lathe\\udcff' "
                              "holds a byte that is not UTF-8 text; give --name as text\n")
     assert not target.exists()
+
+
+@pytest.mark.parametrize("increment, finest_mm, finest_inch", [("IS-A", 2, 3), ("IS-B", 3, 4), ("IS-C", 4, 5)])
+@pytest.mark.parametrize("decimals_mm, decimals_inch", [(2, 3), (3, 4), (4, 5), (5, 6)])
+def test_output_decimals_finer_than_the_input_increment_are_refused(increment, finest_mm, finest_inch, decimals_mm,
+                                                                    decimals_inch):
+    """A number written with more decimals than the control's least input increment is one the
+    control reads otherwise (or alarms on): such a profile is refused, naming the key."""
+    from postproc.diagnostics import OptionError
+
+    data = {"input_increment": increment, "output_decimals_mm": decimals_mm, "output_decimals_inch": decimals_inch}
+    if decimals_mm <= finest_mm and decimals_inch <= finest_inch:
+        profile = from_mapping(data, "p.toml")
+        assert (profile.output_decimals_mm, profile.output_decimals_inch) == (decimals_mm, decimals_inch)
+        return
+    with pytest.raises(OptionError) as refused:
+        from_mapping(data, "p.toml")
+    unit = "mm" if decimals_mm > finest_mm else "inch"
+    assert f"output_decimals_{unit} = " in refused.value.message and increment in refused.value.message
+    assert f"set output_decimals_{unit} = {finest_mm if unit == 'mm' else finest_inch}" in refused.value.message
