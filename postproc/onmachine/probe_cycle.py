@@ -125,18 +125,26 @@ RESERVED_M = {0: "stops the program", 1: "is the optional stop", 2: "ends the pr
 
 
 def _check_tool(digits: str) -> None:
-    """A T code that selects a tool and its offset: T0 (any number of zeros) selects no tool and
-    cancels the offset; in the four-digit form (tool, offset) tool 00 is no tool and offset 00
-    cancels the offset, which must put the programmed point at the stylus centre."""
+    """A T code that selects a tool and its offset. A lathe's T code is the tool and its offset
+    in two digits each (T0909) or, in the short form, one each (T99); any other length (T9,
+    T123456) reads as a tool number of zero or one the turret does not have. T0 (any number of
+    zeros) selects no tool and cancels the offset; tool 0 is no tool, and offset 0 cancels the
+    offset, which must put the programmed point at the stylus centre."""
     said = f"--tool T{digits}"
     if int(digits) == 0:
         raise OptionError(f"{said}: T0 selects no tool and cancels the tool offset; give the probe's tool and "
                           "offset, e.g. T0909")
-    if len(digits) == 4 and int(digits[:2]) == 0:
-        raise OptionError(f"{said}: tool 00 is no tool; give the probe's tool and offset, e.g. T{digits[2:]}{digits[2:]}")
-    if len(digits) == 4 and int(digits[2:]) == 0:
-        raise OptionError(f"{said}: offset 00 cancels the tool offset, which must put the programmed point at the "
-                          f"stylus centre; give the probe's offset, e.g. T{digits[:2]}{digits[:2]}")
+    if len(digits) not in (2, 4):
+        raise OptionError(f"{said}: a lathe's T code is the tool and its offset, two digits each (T0909) or one "
+                          f"each (T99); T{digits} would read as another tool or none; give the probe's tool and "
+                          "offset, e.g. T0909")
+    half = len(digits) // 2
+    tool, offset = digits[:half], digits[half:]
+    if int(tool) == 0:
+        raise OptionError(f"{said}: tool {tool} is no tool; give the probe's tool and offset, e.g. T{offset}{offset}")
+    if int(offset) == 0:
+        raise OptionError(f"{said}: offset {offset} cancels the tool offset, which must put the programmed point at the "
+                          f"stylus centre; give the probe's offset, e.g. T{tool}{tool}")
 
 
 def code_digits(text: str | None, letter: str) -> str | None:
