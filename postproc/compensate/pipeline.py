@@ -165,7 +165,7 @@ class Pipeline:
                     self._guarded(compensator, "survey", compensator.survey, moves, model=self.request.model)
         opening, anchor = self._prologue(source)
         steps = interpret_source(source, self.profile, self.reporter, rewriting=True)
-        region = Region(self.request.regions)
+        region = Region(self.request.regions, source.labels if self.request.regions else None, source.name)
         rewriter = Rewriter(steps, self._corrector(), self.profile, self.request, self.reporter, source.name,
                             selects=region)
         lead: list[str] = []  # the tape mark and program number go before the provenance block

@@ -6,7 +6,10 @@ or a tool (``T1``, ``T01``, ``T0101``: moves made while that tool is in the turr
 number alone is the range of it alone: ``L10`` (or ``10``) is ``L10-L10``, ``N100`` is
 ``N100-N100``. Several ``--region`` options select the union of their blocks. Anything else,
 and a range that can select nothing (line 0, a first line after the last, tool 0, which is no
-tool), is refused (exit 3, a bad option value) naming the forms.
+tool), is refused (exit 3, a bad option value) naming the forms; so is a sequence number the
+program lacks or carries twice, or a range of them that runs backwards. The blocks just outside
+stay as they are: the region's first and last blocks meet them (the rewriter asks
+:meth:`Region.contains` before it rewrites a neighbour).
 """
 
 from __future__ import annotations
@@ -53,26 +56,59 @@ def parse(text: str) -> Range:
     raise OptionError(f"--region {text}: expected {FORMS}")
 
 
+def _as_lines(r: Range, spec: str, labels, file: str) -> Range:
+    """A range of sequence numbers as the range of source lines between its blocks."""
+    found = []
+    for label in (r.first, r.last):
+        count = labels.counts.get(label, 0)
+        if count == 0:
+            raise OptionError(f"--region {spec}: {file} has no block N{label}")
+        if count > 1:
+            first, second = labels.lines[label][:2]
+            raise OptionError(f"--region {spec}: N{label} stands on {count} blocks of {file} (lines {first}, {second}"
+                              f"...); give the lines instead, e.g. L{first}-L{first}")
+        found.append(labels.lines[label][0])
+    if found[0] > found[1]:
+        raise OptionError(f"--region {spec}: N{r.last} (line {found[1]}) comes before N{r.first} (line {found[0]}) "
+                          f"in {file}; did you mean N{r.last}-N{r.first}?")
+    return Range("lines", found[0], found[1])
+
+
 class Region:
     """Whether a step's moves may be compensated; asked, in program order, about the moves a
     compensation could change (so that ``matched`` says whether the region selected any)."""
 
-    def __init__(self, specs: list[str]):
+    def __init__(self, specs: list[str], labels=None, file: str = "the program"):
+        """``labels``: the program's :class:`~postproc.syntax.source.LabelIndex`. With it, a
+        range of sequence numbers becomes the range of lines between its two blocks, found
+        before anything is compensated: a block the compensation would not change (a rapid,
+        a comment) still opens or closes it, and a label the program lacks, or holds twice,
+        or whose range runs backwards is refused instead of selecting nothing or running on
+        to the end."""
         self.ranges = [parse(spec) for spec in specs]
+        if labels is not None:
+            self.ranges = [_as_lines(r, spec, labels, file) if r.kind == "labels" else r
+                           for r, spec in zip(self.ranges, specs)]
         self._open: set[int] = set()  # label ranges we are inside
         self._step: Step | None = None
         self._selected = False
         self.matched = False  #: whether any move asked about was selected
 
     def __call__(self, step: Step, move: Move) -> bool:
+        chosen = self.contains(step, move)
+        self.matched |= chosen
+        return chosen
+
+    def contains(self, step: Step, move: Move) -> bool:
+        """Whether the region holds this move, without counting it as selected: the rewriter
+        asks it of a block it would otherwise rewrite to meet a changed neighbour, and leaves
+        a block outside the region as it is."""
         if not self.ranges:
             return True
         if step is not self._step:
             self._step = step
             self._selected = self._decide(step)
-        chosen = self._selected or any(r.kind == "tool" and move.tool == r.first for r in self.ranges)
-        self.matched |= chosen
-        return chosen
+        return self._selected or any(r.kind == "tool" and move.tool == r.first for r in self.ranges)
 
     def _decide(self, step: Step) -> bool:
         label = step.block.label

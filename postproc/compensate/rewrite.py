@@ -255,6 +255,8 @@ class Rewriter:
         self.reporter = reporter
         self.file = file
         self.selects = selects or (lambda step, move: True)
+        #: whether a block lies in the region, not counting it as selected; a block outside is never rewritten
+        self.inside = getattr(selects, "contains", None) or self.selects
         self.mode_now = None  # motion mode the control is in after what was written
         self.original_mode = None  # motion mode the original program had at this point
         self.largest = 0.0  #: largest correction applied, mm
@@ -495,6 +497,7 @@ class Rewriter:
         return (
             not entry.kept
             and len(step.moves) == 1
+            and self.inside(step, step.moves[0])
             and step.moves[0].kind in (LINE, RAPID)
             and step.moves[0].exact
             and step.moves[0].known

@@ -70,3 +70,61 @@ def test_a_malformed_region_writes_nothing(run):
     assert result.stdout == ""
     assert result.stderr == ("postproc: error: --region L10-: expected N100-N200 or N100 (sequence numbers), "
                              "L10-L50, L10, 10-50 or 10 (source lines), or a tool like T01\n")
+
+
+NUMBERED = ("%\nO5000\nG18 G21 G40 G99\nT0101\nG96 S200 M03\nN100 G00 X100. Z5.\nN110 G01 X20. F0.1\nN120 Z-10.\n"
+            "N130 X40. Z-30.\nN140 Z-45.\nN150 G02 X80. Z-65. R20.\nN160 G01 Z-80.\nN170 G00 X200. Z150.\nM30\n%\n")
+
+
+def _changed_lines(original: str, written: str) -> set[int]:
+    """The lines of ``original`` (1-based) that do not come out as they were, in order."""
+    import difflib
+
+    old = original.splitlines()
+    new = [line for line in written.splitlines() if not line.startswith("(") or line in old]
+    kept = set()
+    for block in difflib.SequenceMatcher(None, old, new, autojunk=False).get_matching_blocks():
+        kept.update(range(block.a + 1, block.a + block.size + 1))
+    return set(range(1, len(old) + 1)) - kept
+
+
+@pytest.mark.parametrize("region, lines", [
+    ("N120", {8}), ("N110-N140", {7, 8, 9, 10}), ("N100-N160", set(range(6, 13))), ("N150", {11}),
+    ("L8-L9", {8, 9}), ("N130-N130", {9}), ("N100", {6}),
+])
+def test_blocks_outside_the_region_come_out_as_they_were(run, tmp_path, region, lines):
+    """The region's first and last blocks meet their neighbours' nominal ends themselves: the
+    block before and the block after stay byte for byte, as everything outside does; a
+    sequence number on a block the compensation does not change (a rapid) still opens and
+    closes its range."""
+    program = tmp_path / "p.nc"
+    program.write_text(NUMBERED)
+    result = run("compensate", str(program), *TRACES, "--region", region)
+    assert result.exit_code == 0, result.stderr
+    changed = _changed_lines(NUMBERED, result.stdout)
+    assert changed <= lines, (region, sorted(changed - lines))
+    if lines & {8, 9, 10, 11, 12}:  # a feed move inside: something is compensated
+        assert changed, result.stderr
+
+
+@pytest.mark.parametrize("region, said", [
+    ("N110-N999", "has no block N999"),
+    ("N140-N110", "N110 (line 7) comes before N140 (line 10)"),
+    ("N990", "has no block N990"),
+])
+def test_a_sequence_number_range_the_program_cannot_hold_is_refused(run, tmp_path, region, said):
+    """A range whose label is missing or that runs backwards would select nothing or run on to
+    the end of the program: refused (exit 3), nothing written."""
+    program = tmp_path / "p.nc"
+    program.write_text(NUMBERED)
+    result = run("compensate", str(program), *TRACES, "--region", region)
+    assert result.exit_code == 3 and result.stdout == ""
+    assert said in result.stderr
+
+
+def test_a_sequence_number_on_two_blocks_is_refused_as_a_region(run, tmp_path):
+    program = tmp_path / "p.nc"
+    program.write_text(NUMBERED.replace("N160 G01", "N120 G01"))
+    result = run("compensate", str(program), *TRACES, "--region", "N120")
+    assert result.exit_code == 3 and result.stdout == ""
+    assert "N120 stands on 2 blocks" in result.stderr and "give the lines instead, e.g. L8-L8" in result.stderr
