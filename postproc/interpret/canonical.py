@@ -1,5 +1,16 @@
-"""The fast path of the interpreter: an ordinary block's canonical line turned into its step
-by the same rules as the general path, with the modal state memoised.
+"""The fast path of the interpreter: a block that can take it (G00-G03, axis words, F, S, M)
+read without the general machinery, by the same rules, with the modal state memoised.
+
+Two kinds of block take it. A canonical block (:mod:`postproc.syntax.fastpath`) is read from
+its fields, without walking its words; any other ordinary block has its words walked into
+the same fields. Both then go through :meth:`CanonicalLines.canonical_motion`, the fast
+path's one set of rules: when it must leave a block to the general path (which warns or
+alarms), the modal changes, the end point (the general path's
+:meth:`~postproc.interpret.arcs.MotionAndArcs._end_point`, written out), the arc centre (the
+general path's own), the feed (:func:`~postproc.interpret.state.feed_rate`) and the move
+(:func:`~postproc.interpret.motion.move_under`).
+``tests/interpret/test_interpreter_fast.py`` holds both routes to the general path's steps,
+modal states, warnings and alarms.
 
 One phase of :class:`~postproc.interpret.interpreter.Interpreter`, as LinuxCNC's rs274ngc keeps
 each phase of its interpreter in a file of its own: the methods here work on the Interpreter's
@@ -9,10 +20,14 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from . import gcodes as G
-from .motion import LINE, Modal, Move, RAPID, RUN, Step
+from .motion import ARC, LINE, Modal, RAPID, RUN, Step, move_under
 from ..syntax.blocks import Block
-from .state import INCH, _FAST_LENGTHS, _FAST_LETTERS, _FAST_MODES, _FAST_MOTION, _FLOW_M, _MAX_DIGITS, _UNSIGNED, _new_move
+from ..syntax.fastpath import CanonicalLine
+from .state import INCH, _FAST_LENGTHS, _FAST_LETTERS, _FAST_MODES, _FAST_MOTION, _FLOW_M, _MAX_DIGITS, _UNSIGNED, feed_rate
+
+#: What the fast path makes of a block that moves the tool: ``(kind, x0, z0, x1, z1, xc, zc, cw)``,
+#: the fields of its move that the modal state does not give (see :func:`~postproc.interpret.motion.move_under`).
+Geometry = tuple
 
 
 class CanonicalLines:
@@ -36,23 +51,95 @@ class CanonicalLines:
         """``modal`` in the motion mode ``motion``, remembered like every change of state."""
         return modal if modal.motion == motion else self._with(modal, "motion", motion)
 
-    def _ordinary(self, block: Block) -> Step | None:
-        """An ordinary block (G00-G03, axis words, F, S, M) interpreted without the general
-        machinery, or None to take the general path. ``tests/interpret/test_interpreter_fast.py`` checks
-        that both give the same steps, modal states and warnings."""
+    def canonical_step(self, block: Block) -> Step | None:
+        """The step of a canonical block, or None to take the general path."""
+        geometry = self.canonical_motion(block)
+        return None if geometry is None else self._fast_step(block, geometry)
+
+    def canonical_motion(self, line: Block | CanonicalLine, fields: tuple | None = None, u: bool = False,
+                         w: bool = False, spindle: float | None = None, plain: str | None = None) -> Geometry | None:
+        """Interpret a canonical line from its fields, without making its step: the geometry of
+        its move, ``()`` when it commands none, or None (the state as it was) for a block the
+        general path must take because it would warn or alarm: a G01-G03 move without a feed
+        or with F0 (:meth:`_need_feed`), I, K or R where they are no arc's, an arc outside G18
+        or from an unknown position. All that the tally needs, so ``line`` may be the reader's
+        :class:`~postproc.syntax.fastpath.CanonicalLine`.
+
+        The fast path's one set of rules: :meth:`_ordinary` brings its blocks here too, as
+        ``fields`` in the canonical layout (N G X Z I K R F, numbers read but not yet in inches)
+        with what the canonical form cannot say: ``u``/``w``, the X/Z value is a U/W word;
+        ``spindle``, the block's S; ``plain``, its first length word without a decimal point."""
+        label, g, x, z, i, k, r, f = line.fields if fields is None else fields
+        if label is not None and self._jumps is not False and self._is_jump_target(int(label)):
+            self._forget()  # a jump may arrive here
         modal = self.modal
-        motion = modal.motion
-        profile = self.profile
+        motion = modal.motion if g is None else _FAST_MOTION[g]
+        if motion not in _FAST_MODES:
+            return None
         inch = modal.inch
+        feed = modal.feed if f is None else feed_rate(float(f), inch)
+        moves = x is not None or z is not None
+        if not moves:
+            if i is not None or k is not None or r is not None:
+                return None
+        elif motion == 10:  # G01
+            if not feed or i is not None or k is not None or r is not None:
+                return None
+        elif motion != 0 and (not feed or modal.plane != 18 or self.x is None or self.z is None):
+            return None
+        if plain is not None:  # seldom: is any other length word of the block written with its point?
+            self._note_units(line, plain, any("." in v for l, v in line.codes if l in _FAST_LENGTHS))
+        elif moves and not self._pointed:  # every length word of the block has its point
+            self._note_units(line, None, True)
+        if feed != modal.feed:
+            modal = self._with(modal, "feed", feed)
+        if spindle is not None and spindle != modal.spindle:
+            modal = self._with(modal, "spindle", spindle)
+        if motion != modal.motion:
+            found = self._memo.get((id(modal), "motion", motion))  # _with's memo, looked up without a call
+            modal = found[1] if found is not None and found[0] is modal else self._with(modal, "motion", motion)
+        self.modal = modal
+        if not moves:
+            return ()
+        scale = INCH if inch else 1.0
+        incremental = not modal.absolute
+        x0, z0 = self.x, self.z
+        # _end_point's rule, written out: a call per block costs the tally a tenth of its time
+        x1, z1 = x0, z0
+        if x is not None:
+            x = float(x) * scale * self._diameter
+            x1 = (None if x0 is None else x0 + x) if u or incremental else x
+        if z is not None:
+            z = float(z) * scale
+            z1 = (None if z0 is None else z0 + z) if w or incremental else z
+        if motion < 20:  # G00, G01
+            self.x, self.z = x1, z1
+            return (RAPID if motion == 0 else LINE), x0, z0, x1, z1, None, None, None
+        values = {}
+        if i is not None:
+            values["I"] = float(i) * scale
+        if k is not None:
+            values["K"] = float(k) * scale
+        if r is not None:
+            values["R"] = float(r) * scale
+        xc, zc = self._arc_centre(line, values, motion == 20, x1, z1)
+        self.x, self.z = x1, z1
+        return ARC, x0, z0, x1, z1, xc, zc, motion == 20
+
+    def _ordinary(self, block: Block) -> Step | None:
+        """An ordinary block that is not canonical (plain numbers, U and W, S and M words, other
+        spellings) with its words walked, then taken by :meth:`canonical_motion`; or None to
+        take the general path."""
+        modal = self.modal
+        profile = self.profile
+        g = None
         values: dict[str, float] = {}
-        motion_given = False
         plain = None  # the first length word without a decimal point (and not 0)
         for letter, value in block.codes:
             if letter == "G":
-                mode = _FAST_MOTION.get(value)
-                if mode is None or motion_given:
+                if g is not None or value not in _FAST_MOTION:
                     return None
-                motion, motion_given = mode, True
+                g = value
                 continue
             if type(value) is not str:
                 return None
@@ -65,136 +152,38 @@ class CanonicalLines:
             if value[0] == "-" and letter in _UNSIGNED or len(value) > _MAX_DIGITS:
                 return None  # the general path says what the control would
             number = float(value)
-            if letter in _FAST_LENGTHS:
-                if "." not in value:
-                    if plain is None and number != 0.0:
-                        plain = letter
-                    if not profile.calculator_input:
-                        number *= profile.increment(inch)
-                if inch:
-                    number *= INCH
+            if letter in _FAST_LENGTHS and "." not in value:
+                if plain is None and number != 0.0:
+                    plain = letter
+                if not profile.calculator_input:
+                    number *= profile.increment(modal.inch)
             values[letter] = number
-        if motion not in _FAST_MODES:
-            return None
-        has_x = "X" in values or "U" in values
-        has_z = "Z" in values or "W" in values
-        if ("X" in values and "U" in values) or ("Z" in values and "W" in values):
-            return None
-        feed = modal.feed
-        if "F" in values:
-            feed = values["F"] * (INCH if inch else 1.0)
-        if has_x or has_z:
-            if motion == G.G01:
-                if feed is None or feed == 0.0 or "R" in values or "I" in values or "K" in values:
-                    return None
-            elif motion != G.G00:
-                if feed is None or feed == 0.0 or modal.plane != 18 or self.x is None or self.z is None:
-                    return None
-        elif "I" in values or "K" in values or "R" in values:
-            return None
-        # commit the modal changes
-        if plain is not None:  # seldom: is any other length word of the block written with its point?
-            self._note_units(block, plain, any("." in v for l, v in block.codes if l in _FAST_LENGTHS))
-        elif not self._pointed and (has_x or has_z):  # every length word of the block has its point
-            self._note_units(block, None, True)
-        if feed != modal.feed:
-            modal = self._with(modal, "feed", feed)
-        if "S" in values and values["S"] != modal.spindle:
-            modal = self._with(modal, "spindle", values["S"])
-        if motion != modal.motion:
-            modal = self._with(modal, "motion", motion)
-        self.modal = modal
-        if not (has_x or has_z):
-            return Step(block, (), modal)
-        diameter = 0.5 if profile.diameter_x else 1.0
-        x, z = self.x, self.z
-        x1, z1 = x, z
-        absolute = modal.absolute
-        if "X" in values:
-            x1 = values["X"] * diameter if absolute else (None if x is None else x + values["X"] * diameter)
-        elif "U" in values:
-            x1 = None if x is None else x + values["U"] * diameter
-        if "Z" in values:
-            z1 = values["Z"] if absolute else (None if z is None else z + values["Z"])
-        elif "W" in values:
-            z1 = None if z is None else z + values["W"]
-        if motion == G.G02 or motion == G.G03:
-            return self._arc(block, values, motion == G.G02, x1, z1)
-        move = Move(RAPID if motion == G.G00 else LINE, block.line, x, z, x1, z1, None, None, None, RUN, modal.feed,
-                    modal.per_rev, modal.comp, modal.tool, x1 is not None and z1 is not None, modal.offset)
-        self.x, self.z = x1, z1
-        return Step(block, (move,), modal)
-
-    def _canonical(self, block: Block | tuple, fields: tuple, keep: bool = True) -> Step | int | None:
-        """A canonical block (:mod:`postproc.syntax.fastpath`), read from its fields: the same
-        result as :meth:`_ordinary`, without walking its words. None to take the general
-        path; with ``keep`` False, the number of moves instead of the step, and ``block``
-        may be the reader's light tuple."""
-        label, g, x, z, i, k, r, f = fields
-        if label is not None and self._jumps is not False and self._is_jump_target(int(label)):
-            self._forget()  # a jump may arrive here
-        modal = self.modal
-        motion = modal.motion if g is None else _FAST_MOTION[g]
-        if motion not in _FAST_MODES:
-            return None
-        inch = modal.inch
-        feed = modal.feed if f is None else (float(f) * INCH if inch else float(f))
-        if x is None and z is None:
-            if i is not None or k is not None or r is not None:
+        get = values.get
+        if "U" in values:
+            if "X" in values:
                 return None
-        elif motion == 10:
-            if feed is None or feed == 0.0 or i is not None or k is not None or r is not None:
+            x, u = values["U"], True
+        else:
+            x, u = get("X"), False
+        if "W" in values:
+            if "Z" in values:
                 return None
-        elif motion != 0 and (feed is None or feed == 0.0 or modal.plane != 18 or self.x is None or self.z is None):
-            return None
-        if feed != modal.feed:
-            modal = self._with(modal, "feed", feed)
-        if motion != modal.motion:
-            modal = self._with(modal, "motion", motion)
-        self.modal = modal
-        if x is None and z is None:
-            return self._shared_step(block, (), modal) if keep else 0
-        if not self._pointed:  # a canonical length always has its decimal point
-            self._note_units(block, None, True)
-        scale = INCH if inch else 1.0
-        x0, z0 = self.x, self.z
-        if x is None:
-            x1 = x0
-        elif modal.absolute:
-            x1 = float(x) * scale * self._diameter
+            z, w = values["W"], True
         else:
-            x1 = None if x0 is None else x0 + float(x) * scale * self._diameter
-        if z is None:
-            z1 = z0
-        elif modal.absolute:
-            z1 = float(z) * scale
-        else:
-            z1 = None if z0 is None else z0 + float(z) * scale
-        if motion >= 20:
-            values = {}
-            if i is not None:
-                values["I"] = float(i) * scale
-            if k is not None:
-                values["K"] = float(k) * scale
-            if r is not None:
-                values["R"] = float(r) * scale
-            if not keep:  # block may still be the reader's tuple: an alarm makes it a block
-                self._arc_centre(block, values, motion == 20, x1, z1)
-                self.x, self.z = x1, z1
-                return 1
-            step = self._arc(block, values, motion == 20, x1, z1)
-            step.shared = self._shared
-            return step
-        self.x, self.z = x1, z1
-        if not keep:
-            return 1
-        move = _new_move(Move, (RAPID if motion == 0 else LINE, block.line, x0, z0, x1, z1, None, None, None, RUN,
-                                modal.feed, modal.per_rev, modal.comp, modal.tool, x1 is not None and z1 is not None,
-                                modal.offset))
-        return self._shared_step(block, (move,), modal)
+            z, w = get("Z"), False
+        geometry = self.canonical_motion(block, (None, g, x, z, get("I"), get("K"), get("R"), get("F")), u, w,
+                                         get("S"), plain)
+        return None if geometry is None else self._fast_step(block, geometry)
 
-    def _shared_step(self, block: Block, moves: tuple[Move, ...], modal: Modal) -> Step:
-        step = Step(block, moves, modal)
+    def _fast_step(self, block: Block, geometry: Geometry) -> Step:
+        """The step of a block the fast path took: its move, if any, under the modal state now in force."""
+        if geometry:
+            kind, x0, z0, x1, z1, xc, zc, cw = geometry
+            moves = (move_under(self.modal, kind, block.line, x0, z0, x1, z1, xc, zc, cw, RUN,
+                                x1 is not None and z1 is not None),)
+        else:
+            moves = ()
+        step = Step(block, moves, self.modal)
         if self._shared:
             step.shared = True
         return step

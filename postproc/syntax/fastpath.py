@@ -20,7 +20,9 @@ that both paths give the same block for every line the fast path accepts.
 
 from __future__ import annotations
 
+import functools
 import re
+from typing import NamedTuple
 
 from .blocks import BLANK, BLOCK, HEADER, NO_DETAIL, TAPE, Block, Comment, Detail, Word
 
@@ -74,6 +76,31 @@ def read_ordinary(text: str, line: int, eol: str) -> Block | None:
     else:
         codes = ()
     return Block(line, text, eol, BLOCK, None if label is None else int(label), None, codes, None, None, detail_of_ordinary)
+
+
+class CanonicalLine(NamedTuple):
+    """A line in canonical form, not yet made a :class:`Block`: what the reader's light stream
+    gives for most lines (``read_blocks(..., light=True)``), for a consumer that seldom needs
+    the block (the interpreter's tally). It answers what the interpreter reads of a block in
+    canonical form (``line``, ``text``, ``fields``, and ``words`` for an error's column);
+    :meth:`block` makes the block when more is needed."""
+
+    line: int  #: 1-based line number
+    text: str  #: the line without its ending
+    eol: str
+    fields: tuple  #: the values of its N G X Z I K R F words as written, None where absent (Block.fields)
+
+    def block(self) -> Block:
+        return canonical_block(self.line, self.text, self.eol, self.fields)
+
+    @property
+    def words(self) -> tuple[Word, ...]:
+        return detail_of_ordinary(self.text).words
+
+
+#: ``canonical_line((line, text, eol, fields))``: a :class:`CanonicalLine`, built without the named
+#: tuple's keyword-handling ``__new__`` (the reader makes one per line).
+canonical_line = functools.partial(tuple.__new__, CanonicalLine)
 
 
 def canonical_block(line: int, text: str, eol: str, fields: tuple) -> Block:
