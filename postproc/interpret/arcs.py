@@ -36,9 +36,10 @@ class MotionAndArcs:
             z1 = (None if z1 is None else z1 + z) if z_incremental else z
         return x1, z1
 
-    def _end_of(self, values: dict[str, float]) -> tuple[float | None, float | None]:
-        """The end point that a block's X/U and Z/W values (mm) name: X and Z in the distance
-        mode in force, U and W incremental."""
+    def _target(self, words: _Words) -> tuple[float | None, float | None]:
+        """The end point the block's X/Z/U/W words name (radius mm), None where unknown: X and Z
+        in the distance mode in force, U and W incremental."""
+        values = words.values
         incremental = not self.modal.absolute
         if "X" in values:
             x, x_incremental = values["X"], incremental
@@ -48,11 +49,7 @@ class MotionAndArcs:
             z, z_incremental = values["Z"], incremental
         else:
             z, z_incremental = values.get("W"), True
-        return self._end_point(x, x_incremental, z, z_incremental)
-
-    def _target(self, words: _Words) -> tuple[float | None, float | None]:
-        """The end point the block's X/Z/U/W words name (radius mm), None where unknown."""
-        x, z = self._end_of(words.values)
+        x, z = self._end_point(x, x_incremental, z, z_incremental)
         if "X" in words.unknown or "U" in words.unknown:
             x = None
         if "Z" in words.unknown or "W" in words.unknown:
