@@ -25,11 +25,6 @@ from ..syntax.blocks import Block
 from ..syntax.fastpath import CanonicalLine
 from .state import INCH, _FAST_LENGTHS, _FAST_LETTERS, _FAST_MODES, _FAST_MOTION, _FLOW_M, _MAX_DIGITS, _UNSIGNED, feed_rate
 
-#: What the fast path makes of a block that moves the tool: ``(kind, x0, z0, x1, z1, xc, zc, cw)``,
-#: the fields of its move that the modal state does not give (see :func:`~postproc.interpret.motion.move_under`).
-Geometry = tuple
-
-
 class CanonicalLines:
     """The fast path, mixed into :class:`~postproc.interpret.interpreter.Interpreter`."""
 
@@ -53,43 +48,57 @@ class CanonicalLines:
 
     def canonical_step(self, block: Block) -> Step | None:
         """The step of a canonical block, or None to take the general path."""
-        geometry = self.canonical_motion(block)
-        return None if geometry is None else self._fast_step(block, geometry)
+        label = block.fields[0]
+        if label is not None:
+            self._arrive(label)  # before the move's start is read: a jump may arrive here
+        x0, z0 = self.x, self.z
+        moved = self.canonical_motion(block)
+        return None if moved is None else self._fast_step(block, moved, x0, z0)
+
+    def _arrive(self, label: str) -> None:
+        """A block with this sequence number may be a jump's target: forget what only one path knew."""
+        if self._jumps is not False and self._is_jump_target(int(label)):
+            self._forget()
 
     def canonical_motion(self, line: Block | CanonicalLine, fields: tuple | None = None, u: bool = False,
-                         w: bool = False, spindle: float | None = None, plain: str | None = None) -> Geometry | None:
-        """Interpret a canonical line from its fields, without making its step: the geometry of
-        its move, ``()`` when it commands none, or None (the state as it was) for a block the
-        general path must take because it would warn or alarm: a G01-G03 move without a feed
-        or with F0 (:meth:`_need_feed`), I, K or R where they are no arc's, an arc outside G18
-        or from an unknown position. All that the tally needs, so ``line`` may be the reader's
-        :class:`~postproc.syntax.fastpath.CanonicalLine`.
+                         w: bool = False, spindle: float | None = None, plain: str | None = None) -> int | None:
+        """Interpret a canonical line from its fields, without making its step: the number of
+        moves it commands (1 or 0), or None (the state as it was) for a block the general path
+        must take because it would warn or alarm: a G01-G03 move without a feed or with F0
+        (:meth:`_need_feed`), I, K or R where they are no arc's, an arc outside G18 or from an
+        unknown position. All that the tally needs, so ``line`` may be the reader's
+        :class:`~postproc.syntax.fastpath.CanonicalLine`; the step path (:meth:`_fast_step`)
+        reads the move from the state it leaves: the end point, the motion mode and, for an
+        arc, ``_centre``.
 
         The fast path's one set of rules: :meth:`_ordinary` brings its blocks here too, as
         ``fields`` in the canonical layout (N G X Z I K R F, numbers read but not yet in inches)
         with what the canonical form cannot say: ``u``/``w``, the X/Z value is a U/W word;
         ``spindle``, the block's S; ``plain``, its first length word without a decimal point."""
         label, g, x, z, i, k, r, f = line.fields if fields is None else fields
-        if label is not None and self._jumps is not False and self._is_jump_target(int(label)):
-            self._forget()  # a jump may arrive here
+        if label is not None and self._jumps is not False:
+            self._arrive(label)
         modal = self.modal
         motion = modal.motion if g is None else _FAST_MOTION[g]
         if motion not in _FAST_MODES:
             return None
         inch = modal.inch
         feed = modal.feed if f is None else feed_rate(float(f), inch)
-        moves = x is not None or z is not None
-        if not moves:
+        if x is None and z is None:
             if i is not None or k is not None or r is not None:
                 return None
+            moved = 0
         elif motion == 10:  # G01
             if not feed or i is not None or k is not None or r is not None:
                 return None
+            moved = 1
         elif motion != 0 and (not feed or modal.plane != 18 or self.x is None or self.z is None):
             return None
+        else:
+            moved = 1
         if plain is not None:  # seldom: is any other length word of the block written with its point?
             self._note_units(line, plain, any("." in v for l, v in line.codes if l in _FAST_LENGTHS))
-        elif moves and not self._pointed:  # every length word of the block has its point
+        elif moved and not self._pointed:  # every length word of the block has its point
             self._note_units(line, None, True)
         if feed != modal.feed:
             modal = self._with(modal, "feed", feed)
@@ -99,32 +108,28 @@ class CanonicalLines:
             found = self._memo.get((id(modal), "motion", motion))  # _with's memo, looked up without a call
             modal = found[1] if found is not None and found[0] is modal else self._with(modal, "motion", motion)
         self.modal = modal
-        if not moves:
-            return ()
+        if not moved:
+            return 0
         scale = INCH if inch else 1.0
-        incremental = not modal.absolute
-        x0, z0 = self.x, self.z
+        x1, z1 = self.x, self.z
         # _end_point's rule, written out: a call per block costs the tally a tenth of its time
-        x1, z1 = x0, z0
         if x is not None:
             x = float(x) * scale * self._diameter
-            x1 = (None if x0 is None else x0 + x) if u or incremental else x
+            x1 = (None if x1 is None else x1 + x) if u or not modal.absolute else x
         if z is not None:
             z = float(z) * scale
-            z1 = (None if z0 is None else z0 + z) if w or incremental else z
-        if motion < 20:  # G00, G01
-            self.x, self.z = x1, z1
-            return (RAPID if motion == 0 else LINE), x0, z0, x1, z1, None, None, None
-        values = {}
-        if i is not None:
-            values["I"] = float(i) * scale
-        if k is not None:
-            values["K"] = float(k) * scale
-        if r is not None:
-            values["R"] = float(r) * scale
-        xc, zc = self._arc_centre(line, values, motion == 20, x1, z1)
+            z1 = (None if z1 is None else z1 + z) if w or not modal.absolute else z
+        if motion >= 20:  # G02, G03
+            values = {}
+            if i is not None:
+                values["I"] = float(i) * scale
+            if k is not None:
+                values["K"] = float(k) * scale
+            if r is not None:
+                values["R"] = float(r) * scale
+            self._centre = self._arc_centre(line, values, motion == 20, x1, z1)
         self.x, self.z = x1, z1
-        return ARC, x0, z0, x1, z1, xc, zc, motion == 20
+        return 1
 
     def _ordinary(self, block: Block) -> Step | None:
         """An ordinary block that is not canonical (plain numbers, U and W, S and M words, other
@@ -171,16 +176,26 @@ class CanonicalLines:
             z, w = values["W"], True
         else:
             z, w = get("Z"), False
-        geometry = self.canonical_motion(block, (None, g, x, z, get("I"), get("K"), get("R"), get("F")), u, w,
-                                         get("S"), plain)
-        return None if geometry is None else self._fast_step(block, geometry)
+        x0, z0 = self.x, self.z
+        moved = self.canonical_motion(block, (None, g, x, z, get("I"), get("K"), get("R"), get("F")), u, w,
+                                      get("S"), plain)
+        return None if moved is None else self._fast_step(block, moved, x0, z0)
 
-    def _fast_step(self, block: Block, geometry: Geometry) -> Step:
-        """The step of a block the fast path took: its move, if any, under the modal state now in force."""
-        if geometry:
-            kind, x0, z0, x1, z1, xc, zc, cw = geometry
-            moves = (move_under(self.modal, kind, block.line, x0, z0, x1, z1, xc, zc, cw, RUN,
-                                x1 is not None and z1 is not None),)
+    def _fast_step(self, block: Block, moved: int, x0: float | None, z0: float | None) -> Step:
+        """The step of a block the fast path took, from (x0, z0): its move, if any, to where
+        :meth:`canonical_motion` left the tool, under the modal state now in force."""
+        if moved:
+            modal = self.modal
+            motion = modal.motion
+            x1, z1 = self.x, self.z
+            if motion < 20:
+                move = move_under(modal, RAPID if motion == 0 else LINE, block.line, x0, z0, x1, z1, None, None, None,
+                                  RUN, x1 is not None and z1 is not None)
+            else:
+                xc, zc = self._centre
+                move = move_under(modal, ARC, block.line, x0, z0, x1, z1, xc, zc, motion == 20, RUN,
+                                  x1 is not None and z1 is not None)
+            moves = (move,)
         else:
             moves = ()
         step = Step(block, moves, self.modal)

@@ -86,6 +86,7 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
         self._fresh_corner: tuple[int, str, float] | None = None
         self._feed_warned = False
         self._shared = False  # inside a local subprogram called from several places
+        self._centre: tuple[float, float] | None = None  # the centre of the fast path's last arc
 
     def run(self, blocks: Iterable[Block]) -> Iterator[Step]:
         canonical_step = self.canonical_step
@@ -111,11 +112,10 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
         for block in blocks:
             if type(block) is CanonicalLine:
                 if steady:  # a canonical block changes none of what _steady reads
-                    geometry = canonical_motion(block)
-                    if geometry is not None:
+                    moved = canonical_motion(block)
+                    if moved is not None:
                         count += 1
-                        if geometry:
-                            moves += 1
+                        moves += moved
                         continue
                 block = block.block()
             for step in self._general(block):

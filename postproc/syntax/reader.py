@@ -18,7 +18,7 @@ from typing import Iterable, Iterator
 
 from .blocks import BLANK, BLOCK, NO_DETAIL, TAPE, TRAILER, Block
 from ..diagnostics import Location, Reporter
-from .fastpath import CanonicalLine, canonical_block, canonical_fields, canonical_line, read_ordinary
+from .fastpath import CanonicalLine, canonical_block, canonical_fields, read_ordinary
 
 #: What may stand before a tape mark: spaces, and the byte order mark a Windows editor writes
 #: at the start of a file (the control reads nothing before the opening %).
@@ -39,6 +39,15 @@ def read_blocks(lines: Iterable[str], file: str, reporter: Reporter | None = Non
     started = ended = False
     for line, raw in enumerate(lines, 1):
         text = raw.rstrip("\r\n")  # one ending per line: LF, CRLF or a lone CR
+        if text and not ended:
+            match = canonical_fields(text)
+            if match is not None:  # read_ordinary's first case, written out: most lines are canonical
+                started = True
+                if light:  # the line's ending is cut off only if the block is made
+                    yield CanonicalLine((line, text, raw, match.groups()))
+                else:
+                    yield canonical_block(line, text, raw[len(text):], match.groups())
+                continue
         eol = raw[len(text):]
         if ended:
             if text.strip() and reporter is not None and ended is True:
@@ -46,13 +55,6 @@ def read_blocks(lines: Iterable[str], file: str, reporter: Reporter | None = Non
                 ended = "warned"
             yield Block(line, text, eol, TRAILER, detail=NO_DETAIL)
             continue
-        if text:
-            match = canonical_fields(text)
-            if match is not None:  # read_ordinary's first case, written out: most lines are canonical
-                started = True
-                yield canonical_line((line, text, eol, match.groups())) if light else \
-                    canonical_block(line, text, eol, match.groups())
-                continue
         block = read_ordinary(text, line, eol)
         if block is None:
             percent = text.find("%")
