@@ -9,31 +9,47 @@ from __future__ import annotations
 import math
 
 from . import gcodes as G
-from .motion import ARC, CONTOUR, LINE, Move, RAPID, RUN, Step, THREAD
+from .motion import ARC, CONTOUR, LINE, Move, RAPID, RUN, Step, THREAD, move_under
 from ..diagnostics import InterpretationError
 from ..syntax.blocks import Block
-from .state import _CYCLE_KIND, _MOTION_KIND, _Uninterpretable, _Words, _new_move
+from ..syntax.fastpath import CanonicalLine
+from .state import _CYCLE_KIND, _MOTION_KIND, _Uninterpretable, _Words
 
 
 class MotionAndArcs:
     """Motion and arcs, mixed into :class:`~postproc.interpret.interpreter.Interpreter`."""
 
+    def _end_point(self, x: float | None, x_incremental: bool, z: float | None,
+                   z_incremental: bool) -> tuple[float | None, float | None]:
+        """Where a move from the current position ends (radius mm), given the X and Z a block
+        names (mm; X as the program writes it, a diameter on a diameter-programmed lathe;
+        None for an axis it names no end on), each absolute or incremental (U and W, or X and
+        Z under G91). None where the position is unknown and the word incremental. The fast
+        path writes this rule out in :meth:`~postproc.interpret.canonical.CanonicalLines.canonical_motion`
+        (a call per block costs the tally a tenth of its time); ``tests/interpret/test_interpreter_fast.py``
+        holds the two to the same end points."""
+        x1, z1 = self.x, self.z
+        if x is not None:
+            x *= self._diameter
+            x1 = (None if x1 is None else x1 + x) if x_incremental else x
+        if z is not None:
+            z1 = (None if z1 is None else z1 + z) if z_incremental else z
+        return x1, z1
+
     def _target(self, words: _Words) -> tuple[float | None, float | None]:
-        """The end point the block's X/Z/U/W words name (radius mm), None where unknown."""
+        """The end point the block's X/Z/U/W words name (radius mm), None where unknown: X and Z
+        in the distance mode in force, U and W incremental."""
         values = words.values
-        diameter = 0.5 if self.profile.diameter_x else 1.0
         incremental = not self.modal.absolute
-        x, z = self.x, self.z
         if "X" in values:
-            value = values["X"] * diameter
-            x = (None if x is None else x + value) if incremental else value
-        elif "U" in values:
-            x = None if x is None else x + values["U"] * diameter
+            x, x_incremental = values["X"], incremental
+        else:
+            x, x_incremental = values.get("U"), True
         if "Z" in values:
-            value = values["Z"]
-            z = (None if z is None else z + value) if incremental else value
-        elif "W" in values:
-            z = None if z is None else z + values["W"]
+            z, z_incremental = values["Z"], incremental
+        else:
+            z, z_incremental = values.get("W"), True
+        x, z = self._end_point(x, x_incremental, z, z_incremental)
         if "X" in words.unknown or "U" in words.unknown:
             x = None
         if "Z" in words.unknown or "W" in words.unknown:
@@ -44,9 +60,7 @@ class MotionAndArcs:
         return CONTOUR if self._capture is not None else RUN
 
     def _move(self, kind: str, block: Block, x1, z1, xc=None, zc=None, cw=None, exact: bool = True) -> Move:
-        modal = self.modal
-        return _new_move(Move, (kind, block.line, self.x, self.z, x1, z1, xc, zc, cw, self._role(), modal.feed,
-                                modal.per_rev, modal.comp, modal.tool, exact, modal.offset))
+        return move_under(self.modal, kind, block.line, self.x, self.z, x1, z1, xc, zc, cw, self._role(), exact)
 
     def _motion(self, block: Block, words: _Words) -> Step:
         motion = self.modal.motion
@@ -124,9 +138,10 @@ class MotionAndArcs:
         self._note_corner(step, block, values)
         return step
 
-    def _arc_centre(self, block: Block | tuple, values: dict[str, float], cw: bool, x1, z1) -> tuple[float, float]:
-        """The centre of the arc from here to (x1, z1), or the control's alarm (``block`` may
-        be the reader's light tuple: only an alarm reads it)."""
+    def _arc_centre(self, block: Block | CanonicalLine, values: dict[str, float], cw: bool, x1,
+                    z1) -> tuple[float, float]:
+        """The centre of the arc from here to (x1, z1) that the block's I and K or R (``values``,
+        radius mm) give, or the control's alarm."""
         if None in (self.x, self.z, x1, z1):
             self.x, self.z = x1, z1
             raise _Uninterpretable("an arc from or to a position that is not known", None,

@@ -1,5 +1,16 @@
-"""The fast path of the interpreter: an ordinary block's canonical line turned into its step
-by the same rules as the general path, with the modal state memoised.
+"""The fast path of the interpreter: a block that can take it (G00-G03, axis words, F, S, M)
+read without the general machinery, by the same rules, with the modal state memoised.
+
+Two kinds of block take it. A canonical block (:mod:`postproc.syntax.fastpath`) is read from
+its fields, without walking its words; any other ordinary block has its words walked into
+the same fields. Both then go through :meth:`CanonicalLines.canonical_motion`, the fast
+path's one set of rules: when it must leave a block to the general path (which warns or
+alarms), the modal changes, the end point (the general path's
+:meth:`~postproc.interpret.arcs.MotionAndArcs._end_point`, written out), the arc centre (the
+general path's own), the feed (:func:`~postproc.interpret.state.feed_rate`) and the move
+(:func:`~postproc.interpret.motion.move_under`).
+``tests/interpret/test_interpreter_fast.py`` holds both routes to the general path's steps,
+modal states, warnings and alarms.
 
 One phase of :class:`~postproc.interpret.interpreter.Interpreter`, as LinuxCNC's rs274ngc keeps
 each phase of its interpreter in a file of its own: the methods here work on the Interpreter's
@@ -9,11 +20,10 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from . import gcodes as G
-from .motion import LINE, Modal, Move, RAPID, RUN, Step
+from .motion import ARC, LINE, Modal, RAPID, RUN, Step, move_under
 from ..syntax.blocks import Block
-from .state import INCH, _FAST_LENGTHS, _FAST_LETTERS, _FAST_MODES, _FAST_MOTION, _FLOW_M, _MAX_DIGITS, _UNSIGNED, _new_move
-
+from ..syntax.fastpath import CanonicalLine
+from .state import INCH, _FAST_LENGTHS, _FAST_LETTERS, _FAST_MODES, _FAST_MOTION, _FLOW_M, _MAX_DIGITS, _UNSIGNED, feed_rate
 
 class CanonicalLines:
     """The fast path, mixed into :class:`~postproc.interpret.interpreter.Interpreter`."""
@@ -36,23 +46,105 @@ class CanonicalLines:
         """``modal`` in the motion mode ``motion``, remembered like every change of state."""
         return modal if modal.motion == motion else self._with(modal, "motion", motion)
 
-    def _ordinary(self, block: Block) -> Step | None:
-        """An ordinary block (G00-G03, axis words, F, S, M) interpreted without the general
-        machinery, or None to take the general path. ``tests/interpret/test_interpreter_fast.py`` checks
-        that both give the same steps, modal states and warnings."""
+    def canonical_step(self, block: Block) -> Step | None:
+        """The step of a canonical block, or None to take the general path."""
+        label = block.fields[0]
+        if label is not None:
+            self._arrive(label)  # before the move's start is read: a jump may arrive here
+        x0, z0 = self.x, self.z
+        moved = self.canonical_motion(block)
+        return None if moved is None else self._fast_step(block, moved, x0, z0)
+
+    def _arrive(self, label: str) -> None:
+        """A block with this sequence number may be a jump's target: forget what only one path knew."""
+        if self._jumps is not False and self._is_jump_target(int(label)):
+            self._forget()
+
+    def canonical_motion(self, line: Block | CanonicalLine, fields: tuple | None = None, u: bool = False,
+                         w: bool = False, spindle: float | None = None, plain: str | None = None) -> int | None:
+        """Interpret a canonical line from its fields, without making its step: the number of
+        moves it commands (1 or 0), or None (the state as it was) for a block the general path
+        must take because it would warn or alarm: a G01-G03 move without a feed or with F0
+        (:meth:`_need_feed`), I, K or R where they are no arc's, an arc outside G18 or from an
+        unknown position. All that the tally needs, so ``line`` may be the reader's
+        :class:`~postproc.syntax.fastpath.CanonicalLine`; the step path (:meth:`_fast_step`)
+        reads the move from the state it leaves: the end point, the motion mode and, for an
+        arc, ``_centre``.
+
+        The fast path's one set of rules: :meth:`_ordinary` brings its blocks here too, as
+        ``fields`` in the canonical layout (N G X Z I K R F, numbers read but not yet in inches)
+        with what the canonical form cannot say: ``u``/``w``, the X/Z value is a U/W word;
+        ``spindle``, the block's S; ``plain``, its first length word without a decimal point."""
+        label, g, x, z, i, k, r, f = line.fields if fields is None else fields
+        if label is not None and self._jumps is not False:
+            self._arrive(label)
         modal = self.modal
-        motion = modal.motion
-        profile = self.profile
+        motion = modal.motion if g is None else _FAST_MOTION[g]
+        if motion not in _FAST_MODES:
+            return None
         inch = modal.inch
+        feed = modal.feed if f is None else feed_rate(float(f), inch)
+        if x is None and z is None:
+            if i is not None or k is not None or r is not None:
+                return None
+            moved = 0
+        elif motion == 10:  # G01
+            if not feed or i is not None or k is not None or r is not None:
+                return None
+            moved = 1
+        elif motion != 0 and (not feed or modal.plane != 18 or self.x is None or self.z is None):
+            return None
+        else:
+            moved = 1
+        if plain is not None:  # seldom: is any other length word of the block written with its point?
+            self._note_units(line, plain, any("." in v for l, v in line.codes if l in _FAST_LENGTHS))
+        elif moved and not self._pointed:  # every length word of the block has its point
+            self._note_units(line, None, True)
+        if feed != modal.feed:
+            modal = self._with(modal, "feed", feed)
+        if spindle is not None and spindle != modal.spindle:
+            modal = self._with(modal, "spindle", spindle)
+        if motion != modal.motion:
+            found = self._memo.get((id(modal), "motion", motion))  # _with's memo, looked up without a call
+            modal = found[1] if found is not None and found[0] is modal else self._with(modal, "motion", motion)
+        self.modal = modal
+        if not moved:
+            return 0
+        scale = INCH if inch else 1.0
+        x1, z1 = self.x, self.z
+        # _end_point's rule, written out: a call per block costs the tally a tenth of its time
+        if x is not None:
+            x = float(x) * scale * self._diameter
+            x1 = (None if x1 is None else x1 + x) if u or not modal.absolute else x
+        if z is not None:
+            z = float(z) * scale
+            z1 = (None if z1 is None else z1 + z) if w or not modal.absolute else z
+        if motion >= 20:  # G02, G03
+            values = {}
+            if i is not None:
+                values["I"] = float(i) * scale
+            if k is not None:
+                values["K"] = float(k) * scale
+            if r is not None:
+                values["R"] = float(r) * scale
+            self._centre = self._arc_centre(line, values, motion == 20, x1, z1)
+        self.x, self.z = x1, z1
+        return 1
+
+    def _ordinary(self, block: Block) -> Step | None:
+        """An ordinary block that is not canonical (plain numbers, U and W, S and M words, other
+        spellings) with its words walked, then taken by :meth:`canonical_motion`; or None to
+        take the general path."""
+        modal = self.modal
+        profile = self.profile
+        g = None
         values: dict[str, float] = {}
-        motion_given = False
         plain = None  # the first length word without a decimal point (and not 0)
         for letter, value in block.codes:
             if letter == "G":
-                mode = _FAST_MOTION.get(value)
-                if mode is None or motion_given:
+                if g is not None or value not in _FAST_MOTION:
                     return None
-                motion, motion_given = mode, True
+                g = value
                 continue
             if type(value) is not str:
                 return None
@@ -65,136 +157,48 @@ class CanonicalLines:
             if value[0] == "-" and letter in _UNSIGNED or len(value) > _MAX_DIGITS:
                 return None  # the general path says what the control would
             number = float(value)
-            if letter in _FAST_LENGTHS:
-                if "." not in value:
-                    if plain is None and number != 0.0:
-                        plain = letter
-                    if not profile.calculator_input:
-                        number *= profile.increment(inch)
-                if inch:
-                    number *= INCH
+            if letter in _FAST_LENGTHS and "." not in value:
+                if plain is None and number != 0.0:
+                    plain = letter
+                if not profile.calculator_input:
+                    number *= profile.increment(modal.inch)
             values[letter] = number
-        if motion not in _FAST_MODES:
-            return None
-        has_x = "X" in values or "U" in values
-        has_z = "Z" in values or "W" in values
-        if ("X" in values and "U" in values) or ("Z" in values and "W" in values):
-            return None
-        feed = modal.feed
-        if "F" in values:
-            feed = values["F"] * (INCH if inch else 1.0)
-        if has_x or has_z:
-            if motion == G.G01:
-                if feed is None or feed == 0.0 or "R" in values or "I" in values or "K" in values:
-                    return None
-            elif motion != G.G00:
-                if feed is None or feed == 0.0 or modal.plane != 18 or self.x is None or self.z is None:
-                    return None
-        elif "I" in values or "K" in values or "R" in values:
-            return None
-        # commit the modal changes
-        if plain is not None:  # seldom: is any other length word of the block written with its point?
-            self._note_units(block, plain, any("." in v for l, v in block.codes if l in _FAST_LENGTHS))
-        elif not self._pointed and (has_x or has_z):  # every length word of the block has its point
-            self._note_units(block, None, True)
-        if feed != modal.feed:
-            modal = self._with(modal, "feed", feed)
-        if "S" in values and values["S"] != modal.spindle:
-            modal = self._with(modal, "spindle", values["S"])
-        if motion != modal.motion:
-            modal = self._with(modal, "motion", motion)
-        self.modal = modal
-        if not (has_x or has_z):
-            return Step(block, (), modal)
-        diameter = 0.5 if profile.diameter_x else 1.0
-        x, z = self.x, self.z
-        x1, z1 = x, z
-        absolute = modal.absolute
-        if "X" in values:
-            x1 = values["X"] * diameter if absolute else (None if x is None else x + values["X"] * diameter)
-        elif "U" in values:
-            x1 = None if x is None else x + values["U"] * diameter
-        if "Z" in values:
-            z1 = values["Z"] if absolute else (None if z is None else z + values["Z"])
-        elif "W" in values:
-            z1 = None if z is None else z + values["W"]
-        if motion == G.G02 or motion == G.G03:
-            return self._arc(block, values, motion == G.G02, x1, z1)
-        move = Move(RAPID if motion == G.G00 else LINE, block.line, x, z, x1, z1, None, None, None, RUN, modal.feed,
-                    modal.per_rev, modal.comp, modal.tool, x1 is not None and z1 is not None, modal.offset)
-        self.x, self.z = x1, z1
-        return Step(block, (move,), modal)
-
-    def _canonical(self, block: Block | tuple, fields: tuple, keep: bool = True) -> Step | int | None:
-        """A canonical block (:mod:`postproc.syntax.fastpath`), read from its fields: the same
-        result as :meth:`_ordinary`, without walking its words. None to take the general
-        path; with ``keep`` False, the number of moves instead of the step, and ``block``
-        may be the reader's light tuple."""
-        label, g, x, z, i, k, r, f = fields
-        if label is not None and self._jumps is not False and self._is_jump_target(int(label)):
-            self._forget()  # a jump may arrive here
-        modal = self.modal
-        motion = modal.motion if g is None else _FAST_MOTION[g]
-        if motion not in _FAST_MODES:
-            return None
-        inch = modal.inch
-        feed = modal.feed if f is None else (float(f) * INCH if inch else float(f))
-        if x is None and z is None:
-            if i is not None or k is not None or r is not None:
+        get = values.get
+        if "U" in values:
+            if "X" in values:
                 return None
-        elif motion == 10:
-            if feed is None or feed == 0.0 or i is not None or k is not None or r is not None:
+            x, u = values["U"], True
+        else:
+            x, u = get("X"), False
+        if "W" in values:
+            if "Z" in values:
                 return None
-        elif motion != 0 and (feed is None or feed == 0.0 or modal.plane != 18 or self.x is None or self.z is None):
-            return None
-        if feed != modal.feed:
-            modal = self._with(modal, "feed", feed)
-        if motion != modal.motion:
-            modal = self._with(modal, "motion", motion)
-        self.modal = modal
-        if x is None and z is None:
-            return self._shared_step(block, (), modal) if keep else 0
-        if not self._pointed:  # a canonical length always has its decimal point
-            self._note_units(block, None, True)
-        scale = INCH if inch else 1.0
+            z, w = values["W"], True
+        else:
+            z, w = get("Z"), False
         x0, z0 = self.x, self.z
-        if x is None:
-            x1 = x0
-        elif modal.absolute:
-            x1 = float(x) * scale * self._diameter
-        else:
-            x1 = None if x0 is None else x0 + float(x) * scale * self._diameter
-        if z is None:
-            z1 = z0
-        elif modal.absolute:
-            z1 = float(z) * scale
-        else:
-            z1 = None if z0 is None else z0 + float(z) * scale
-        if motion >= 20:
-            values = {}
-            if i is not None:
-                values["I"] = float(i) * scale
-            if k is not None:
-                values["K"] = float(k) * scale
-            if r is not None:
-                values["R"] = float(r) * scale
-            if not keep:  # block may still be the reader's tuple: an alarm makes it a block
-                self._arc_centre(block, values, motion == 20, x1, z1)
-                self.x, self.z = x1, z1
-                return 1
-            step = self._arc(block, values, motion == 20, x1, z1)
-            step.shared = self._shared
-            return step
-        self.x, self.z = x1, z1
-        if not keep:
-            return 1
-        move = _new_move(Move, (RAPID if motion == 0 else LINE, block.line, x0, z0, x1, z1, None, None, None, RUN,
-                                modal.feed, modal.per_rev, modal.comp, modal.tool, x1 is not None and z1 is not None,
-                                modal.offset))
-        return self._shared_step(block, (move,), modal)
+        moved = self.canonical_motion(block, (None, g, x, z, get("I"), get("K"), get("R"), get("F")), u, w,
+                                      get("S"), plain)
+        return None if moved is None else self._fast_step(block, moved, x0, z0)
 
-    def _shared_step(self, block: Block, moves: tuple[Move, ...], modal: Modal) -> Step:
-        step = Step(block, moves, modal)
+    def _fast_step(self, block: Block, moved: int, x0: float | None, z0: float | None) -> Step:
+        """The step of a block the fast path took, from (x0, z0): its move, if any, to where
+        :meth:`canonical_motion` left the tool, under the modal state now in force."""
+        if moved:
+            modal = self.modal
+            motion = modal.motion
+            x1, z1 = self.x, self.z
+            if motion < 20:
+                move = move_under(modal, RAPID if motion == 0 else LINE, block.line, x0, z0, x1, z1, None, None, None,
+                                  RUN, x1 is not None and z1 is not None)
+            else:
+                xc, zc = self._centre
+                move = move_under(modal, ARC, block.line, x0, z0, x1, z1, xc, zc, motion == 20, RUN,
+                                  x1 is not None and z1 is not None)
+            moves = (move,)
+        else:
+            moves = ()
+        step = Step(block, moves, self.modal)
         if self._shared:
             step.shared = True
         return step

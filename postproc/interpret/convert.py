@@ -13,7 +13,7 @@ from . import gcodes as G
 from .motion import CYCLE, LINE, Modal, RAPID, Step, THREAD
 from ..diagnostics import InterpretationError
 from ..syntax.blocks import Block
-from .state import INCH, _ARC_WORDS, _LENGTH_ADDRESSES, _MACRO_CALLS, _MAX_DIGITS, _UNMODELLED_REGION, _UNSIGNED, _Uninterpretable, _WHOLE, _Words
+from .state import INCH, _ARC_WORDS, _LENGTH_ADDRESSES, _MACRO_CALLS, _MAX_DIGITS, _UNMODELLED_REGION, _UNSIGNED, _Uninterpretable, _WHOLE, _Words, feed_rate
 
 
 class WordConversion:
@@ -202,7 +202,7 @@ class WordConversion:
     def _tool_and_feed(self, modal: Modal, block: Block, words: _Words) -> Modal:
         values = words.values
         if "F" in values:
-            feed = values["F"] * (INCH if modal.inch else 1.0)
+            feed = feed_rate(values["F"], modal.inch)
             if feed != modal.feed:
                 modal = replace(modal, feed=feed)
         if "S" in values and not self._clamps_spindle(words):

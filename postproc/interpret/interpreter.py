@@ -31,7 +31,7 @@ from .motion import ARC, CONTOUR, CYCLE, LINE, Modal, Move, RUN, Step
 from ..diagnostics import CornerError, InterpretationError, Location, Reporter, SafetyError
 from ..machine.profile import DEFAULT, MachineProfile
 from ..syntax.blocks import BLOCK, Block, HEADER
-from ..syntax.fastpath import canonical_block
+from ..syntax.fastpath import CanonicalLine
 from ..syntax.source import LabelIndex
 from .state import _Capture, _Contour, _MOTION_KIND, _UNMODELLED_REGION, _Uninterpretable, _WORDS_ARE_DATA, _Words
 from .canonical import CanonicalLines
@@ -88,14 +88,14 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
         self._fresh_corner: tuple[int, str, float] | None = None
         self._feed_warned = False
         self._shared = False  # inside a local subprogram called from several places
+        self._centre: tuple[float, float] | None = None  # the centre of the fast path's last arc
 
     def run(self, blocks: Iterable[Block]) -> Iterator[Step]:
-        canonical = self._canonical
+        canonical_step = self.canonical_step
         steady = self._steady()
         for block in blocks:
-            fields = block.fields
-            if fields is not None and steady:  # a canonical block changes none of what _steady reads
-                step = canonical(block, fields, True)
+            if block.fields is not None and steady:  # a canonical block changes none of what _steady reads
+                step = canonical_step(block)
                 if step is not None:
                     yield step
                     continue
@@ -103,23 +103,23 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
             steady = self._steady()
         self._finish()
 
-    def tally(self, blocks: Iterable[Block | tuple]) -> tuple[int, int]:
+    def tally(self, blocks: Iterable[Block | CanonicalLine]) -> tuple[int, int]:
         """Interpret every block and count blocks and moves, keeping no step: all that
         ``check`` and an identity run need. Takes the reader's light stream
         (``read_blocks(..., light=True)``): a canonical line becomes a block only when
-        the general path or an alarm needs one."""
-        canonical = self._canonical
+        the general path needs one."""
+        canonical_motion = self.canonical_motion
         steady = self._steady()
         count = moves = 0
         for block in blocks:
-            if type(block) is tuple:
+            if type(block) is CanonicalLine:
                 if steady:  # a canonical block changes none of what _steady reads
-                    moved = canonical(block, block[3], False)
+                    moved = canonical_motion(block)
                     if moved is not None:
                         count += 1
                         moves += moved
                         continue
-                block = canonical_block(*block)
+                block = block.block()
             for step in self._general(block):
                 count += 1
                 moves += len(step.moves)
@@ -225,7 +225,7 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
             and not self._drilling
             and not self._modal_macro
         ):
-            step = self._ordinary(block) if block.fields is None else self._canonical(block, block.fields)
+            step = self._ordinary(block) if block.fields is None else self.canonical_step(block)
             if step is not None:
                 step.shared = self._shared
                 return step
@@ -305,7 +305,7 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
         if plain is not None or (pointed and not self._pointed):
             self._note_units(block, plain, pointed)
 
-    def _note_units(self, block: Block | tuple, plain: str | None, pointed: bool) -> None:
+    def _note_units(self, block: Block | CanonicalLine, plain: str | None, pointed: bool) -> None:
         """Calculator-type input (FANUC parameter 3401 bit 0, DPI) reads X118 as 118 mm; the
         default reads it in least input increments, 0.118 mm (IS-B). Nothing in a program says
         which of the two it was written for, and a rewritten block is written with decimal
@@ -375,14 +375,11 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
             self._jumps = bool(self.labels.goto_targets) or self.labels.computed_goto
         return self._jumps and (label in self.labels.goto_targets or self.labels.computed_goto)
 
-    def _location(self, block: Block | tuple, col: int | None) -> Location:
-        line, text = (block[0], block[1]) if type(block) is tuple else (block.line, block.text)
-        return Location(self.file, line, None if col is None else col + 1, text)
+    def _location(self, block: Block | CanonicalLine, col: int | None) -> Location:
+        return Location(self.file, block.line, None if col is None else col + 1, block.text)
 
     @staticmethod
-    def _col(block: Block | tuple, letter: str, occurrence: int = 1) -> int | None:
-        if type(block) is tuple:  # the reader's light tuple of a canonical line
-            block = canonical_block(*block)
+    def _col(block: Block | CanonicalLine, letter: str, occurrence: int = 1) -> int | None:
         seen = 0
         for word in block.words:
             if word.letter == letter:

@@ -70,6 +70,20 @@ class Move(NamedTuple):
         return "cw" if self.cw else "ccw"
 
 
+_tuple_new = tuple.__new__
+
+
+def move_under(modal: "Modal", kind: str, line: int, x0: float | None, z0: float | None, x1: float | None,
+               z1: float | None, xc: float | None = None, zc: float | None = None, cw: bool | None = None,
+               role: str = RUN, exact: bool = True) -> Move:
+    """The move from (x0, z0) to (x1, z1) that a block commands under ``modal``: its feed, feed
+    mode, cutter compensation, tool and offset are the modal state's. The interpreter's one
+    way to make a move: it makes one per block, so the tuple is built directly, without the
+    named tuple's keyword-handling ``__new__``."""
+    return _tuple_new(Move, (kind, line, x0, z0, x1, z1, xc, zc, cw, role, modal.feed, modal.per_rev, modal.comp,
+                             modal.tool, exact, modal.offset))
+
+
 @dataclass(frozen=True, slots=True)
 class Modal:
     """The modal state after a block: shared between blocks until something changes."""

@@ -18,8 +18,15 @@ _FAST_MOTION = {spelling: mode for mode, spellings in ((0, ("0", "00", "000")), 
 _FAST_MODES = frozenset((0, 10, 20, 30))
 _FAST_LETTERS = frozenset("XZUWIKRFS")
 _FAST_LENGTHS = frozenset("XZUWIKR")
-_new_move = tuple.__new__  # Move(...) without its Python-level __new__: one per block
 _FLOW_M = frozenset(("2", "02", "002", "30", "030", "98", "098", "99", "099"))
+
+
+
+def feed_rate(value: float, inch: bool) -> float:
+    """The F word's value as a feed in millimetres (per minute or per revolution): an inch
+    program's F is in inches."""
+    return value * INCH if inch else value
+
 
 # The control's format rules for numbers as written.
 _MAX_DIGITS = 9  #: significant digits a word may carry

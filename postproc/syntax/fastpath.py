@@ -21,6 +21,7 @@ that both paths give the same block for every line the fast path accepts.
 from __future__ import annotations
 
 import re
+from operator import itemgetter
 
 from .blocks import BLANK, BLOCK, HEADER, NO_DETAIL, TAPE, Block, Comment, Detail, Word
 
@@ -74,6 +75,43 @@ def read_ordinary(text: str, line: int, eol: str) -> Block | None:
     else:
         codes = ()
     return Block(line, text, eol, BLOCK, None if label is None else int(label), None, codes, None, None, detail_of_ordinary)
+
+
+class CanonicalLine(tuple):
+    """A line in canonical form, not yet made a :class:`Block`: what the reader's light stream
+    gives for most lines (``read_blocks(..., light=True)``), for a consumer that seldom needs
+    the block (the interpreter's tally). It answers what the interpreter reads of a block in
+    canonical form (``line``, ``text``, ``fields``, and ``words`` for an error's column);
+    :meth:`block` makes the block when more is needed.
+
+    Made as ``CanonicalLine((line, text, raw, fields))``, ``raw`` the line with its ending: a
+    tuple subclass with named fields rather than a ``NamedTuple``, because the reader makes one
+    per line and a named tuple is made through a Python ``__new__`` (or ``tuple.__new__``
+    called through its wrapper), which costs about three times what this class, built by
+    tuple's own constructor, adds over a bare tuple (0.2 against 0.07 us a line)."""
+
+    __slots__ = ()
+
+    line = property(itemgetter(0), doc="1-based line number")
+    text = property(itemgetter(1), doc="the line without its ending")
+    raw = property(itemgetter(2), doc="the line with its ending")
+    fields = property(itemgetter(3), doc="the values of its N G X Z I K R F words as written, "
+                                         "None where absent (Block.fields)")
+
+    def __repr__(self) -> str:
+        return f"CanonicalLine(line={self[0]!r}, text={self[1]!r}, raw={self[2]!r}, fields={self[3]!r})"
+
+    @property
+    def eol(self) -> str:
+        """The line's ending, cut off only when asked: most lines never need it."""
+        return self[2][len(self[1]):]
+
+    def block(self) -> Block:
+        return canonical_block(self[0], self[1], self.eol, self[3])
+
+    @property
+    def words(self) -> tuple[Word, ...]:
+        return detail_of_ordinary(self[1]).words
 
 
 def canonical_block(line: int, text: str, eol: str, fields: tuple) -> Block:

@@ -18,7 +18,7 @@ from typing import Iterable, Iterator
 
 from .blocks import BLANK, BLOCK, NO_DETAIL, TAPE, TRAILER, Block
 from ..diagnostics import Location, Reporter
-from .fastpath import canonical_block, canonical_fields, read_ordinary
+from .fastpath import CanonicalLine, canonical_block, canonical_fields, read_ordinary
 
 #: What may stand before a tape mark: spaces, and the byte order mark a Windows editor writes
 #: at the start of a file (the control reads nothing before the opening %).
@@ -28,17 +28,26 @@ _PROGRAM = re.compile(r"[ \t]*([Oo][ \t]*[0-9]+|<[^<>\r\n]*>)")
 
 
 def read_blocks(lines: Iterable[str], file: str, reporter: Reporter | None = None, *,
-                light: bool = False, label_skip: bool = True) -> Iterator[Block | tuple]:
+                light: bool = False, label_skip: bool = True) -> Iterator[Block | CanonicalLine]:
     """Blocks of a program given as lines, each with its ending; raises ProgramSyntaxError.
 
-    With ``light``, a canonical line comes as the tuple ``(line, text, eol, fields)`` rather
-    than a block (:func:`~postproc.syntax.fastpath.canonical_block` makes it one): for a consumer that
-    seldom needs the block, such as the interpreter's tally. ``label_skip``: what follows the
+    With ``light``, a canonical line comes as a :class:`~postproc.syntax.fastpath.CanonicalLine`
+    rather than a block (its ``block()`` makes it one): for a consumer that seldom needs the
+    block, such as the interpreter's tally. ``label_skip``: what follows the
     opening ``%`` on its line is skipped, as the control skips it (the machine profile's key).
     """
     started = ended = False
     for line, raw in enumerate(lines, 1):
         text = raw.rstrip("\r\n")  # one ending per line: LF, CRLF or a lone CR
+        if text and not ended:
+            match = canonical_fields(text)
+            if match is not None:  # read_ordinary's first case, written out: most lines are canonical
+                started = True
+                if light:  # the line's ending is cut off only if the block is made
+                    yield CanonicalLine((line, text, raw, match.groups()))
+                else:
+                    yield canonical_block(line, text, raw[len(text):], match.groups())
+                continue
         eol = raw[len(text):]
         if ended:
             if text.strip() and reporter is not None and ended is True:
@@ -46,12 +55,6 @@ def read_blocks(lines: Iterable[str], file: str, reporter: Reporter | None = Non
                 ended = "warned"
             yield Block(line, text, eol, TRAILER, detail=NO_DETAIL)
             continue
-        if text:
-            match = canonical_fields(text)
-            if match is not None:  # read_ordinary's first case, written out: most lines are canonical
-                started = True
-                yield (line, text, eol, match.groups()) if light else canonical_block(line, text, eol, match.groups())
-                continue
         block = read_ordinary(text, line, eol)
         if block is None:
             percent = text.find("%")

@@ -10,23 +10,26 @@ from __future__ import annotations
 
 import random
 
+from dataclasses import replace
+
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, given, settings, strategies as st
 
 from support import SAMPLES
 from support.corpus import corpus
 from postproc.diagnostics import PostprocError, Reporter
 from postproc.interpret.interpreter import Interpreter
+from postproc.machine.profile import DEFAULT
 from postproc.syntax.reader import read_blocks
 from postproc.syntax.source import Source
 from support.strategies import lathe_programs
 from support.generate import program
 
 
-def _run(text: str, fast: bool):
+def _run(text: str, fast: bool, profile=DEFAULT):
     reporter = Reporter()
     with Source.from_text(text, "t.nc") as source:
-        interpreter = Interpreter(reporter=reporter, file="t.nc", labels=lambda: source.labels, fast=fast)
+        interpreter = Interpreter(profile, reporter, "t.nc", labels=lambda: source.labels, fast=fast)
         try:
             steps = [(s.block.line, s.moves, s.modal, s.interpreted, s.in_contour, s.shared)
                      for s in interpreter.run(read_blocks(source.lines(), source.name, reporter))]
@@ -35,10 +38,10 @@ def _run(text: str, fast: bool):
     return (steps, [str(w) for w in reporter.warnings])
 
 
-def _tally(text: str):
+def _tally(text: str, profile=DEFAULT):
     reporter = Reporter()
     with Source.from_text(text, "t.nc") as source:
-        interpreter = Interpreter(reporter=reporter, file="t.nc", labels=lambda: source.labels)
+        interpreter = Interpreter(profile, reporter, "t.nc", labels=lambda: source.labels)
         try:
             counts = interpreter.tally(read_blocks(source.lines(), source.name, reporter, light=True))
         except PostprocError as exc:
@@ -46,14 +49,60 @@ def _tally(text: str):
     return (counts, [str(w) for w in reporter.warnings])
 
 
-def _same(text: str) -> None:
-    general = _run(text, fast=False)
-    assert _run(text, fast=True) == general
+def _same(text: str, profile=DEFAULT) -> None:
+    general = _run(text, False, profile)
+    assert _run(text, True, profile) == general
     if general[0] == "error":
-        assert _tally(text) == general, "tally"
+        assert _tally(text, profile) == general, "tally"
     else:
         steps, warnings = general
-        assert _tally(text) == ((len(steps), sum(len(s[1]) for s in steps)), warnings), "tally"
+        assert _tally(text, profile) == ((len(steps), sum(len(s[1]) for s in steps)), warnings), "tally"
+
+
+_LENGTH = st.one_of(st.floats(-999.0, 999.0).map(lambda v: f"{v:.3f}"),  # canonical: with the point
+                    st.integers(-99999, 99999).map(str),  # plain: least input increments
+                    st.sampled_from(["0", "-0.", ".5", "1.", "-.25", "0.0000", "123456789", "1.23456789", "12.34567"]))
+_FEED = st.sampled_from(["0.2", ".15", "100", "0", "0.", "1.5", "12345"])
+_G = st.sampled_from(["G00", "G01", "G02", "G03", "G0", "G1", "G2", "G3", "G001", "g01", "G04", "G20", "G21", "G90",
+                      "G91", "G18", "G19", "G40", "G41", "G99", "G98", "G28"])
+
+
+@st.composite
+def _ordinary_blocks(draw) -> str:
+    """A block of the kinds the fast path takes, and their near misses: G00-G03 (in every
+    spelling), X Z U W I K R with and without their decimal point, F, S, M, labels and
+    comments, in canonical order or any other, spaced or not."""
+    words = []
+    if draw(st.booleans()):
+        words.append(draw(_G))
+    for letter in draw(st.lists(st.sampled_from("XZUWIKR"), max_size=4)):
+        words.append(letter + draw(_LENGTH))
+    if draw(st.integers(0, 3)) == 0:
+        words.append("F" + draw(_FEED))
+    if draw(st.integers(0, 5)) == 0:
+        words.append("S" + draw(st.sampled_from(["200", "1500", "0", "-5"])))
+    if draw(st.integers(0, 5)) == 0:
+        words.append("M" + draw(st.sampled_from(["08", "3", "05", "98", "30", "1.", "99"])))
+    if draw(st.booleans()):
+        words = draw(st.permutations(words))
+    line = draw(st.sampled_from([" ", ""])).join(words)
+    if draw(st.integers(0, 3)) == 0:
+        line = f"N{draw(st.integers(1, 40))} {line}"
+    if draw(st.integers(0, 5)) == 0:
+        line += draw(st.sampled_from([" (CUT)", ";", " (A);"]))
+    return line
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(start=st.sampled_from(["G00 X50. Z5. F0.2", "G00 X50. Z5.", "G20 G00 X2. Z.2 F.01", "G28 U0 W0", "G00 X50 Z5"]),
+       body=st.lists(_ordinary_blocks(), max_size=12),
+       profile=st.sampled_from([DEFAULT, replace(DEFAULT, diameter_x=False), replace(DEFAULT, calculator_input=True),
+                                replace(DEFAULT, calculator_input=False), replace(DEFAULT, gcode_system="B")]))
+def test_ordinary_and_canonical_blocks(start, body, profile):
+    """Generated blocks, canonical and not, in every modal state they make (units, distance
+    mode, feed, motion, plane, an unknown position): the fast path's steps, modal states,
+    warnings and alarms are the general path's, and the tally counts as the run does."""
+    _same("\n".join([start, *body, ""]), profile)
 
 
 @pytest.mark.parametrize("path", corpus("fanuc") + sorted(SAMPLES.glob("**/*.nc")), ids=lambda p: p.name)
@@ -105,9 +154,6 @@ def test_edge_cases(text):
 
 def test_canonical_form_profiles():
     """Diameter or radius X, calculator input: the canonical route follows the profile."""
-    from postproc.machine.profile import DEFAULT
-    from dataclasses import replace
-
     text = "G00 X10. Z1.\nG01 X20. Z-1. F.1\nG02 X22. Z-2. R2.\nG00 X30.\n"
     for profile in (replace(DEFAULT, diameter_x=False), replace(DEFAULT, calculator_input=True)):
         results = []

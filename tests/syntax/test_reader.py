@@ -12,6 +12,7 @@ from support import SAMPLES
 from support.interpret import moves, steps
 from postproc.syntax.blocks import HEADER, TAPE, TRAILER
 from postproc.diagnostics import ProgramSyntaxError, Reporter
+from postproc.syntax.fastpath import CanonicalLine
 from postproc.syntax.reader import read_blocks
 from support.strategies import lines
 
@@ -177,3 +178,32 @@ def test_a_byte_order_mark_before_the_tape_mark_is_kept_and_skipped(run, tmp_pat
     result = run("compensate", str(path), "--model", str(model))
     assert result.exit_code == 0, result.stderr
     assert result.stdout_bytes.startswith(b"\xef\xbb\xbf%\r\nO0007 (BOM)\r\n(POSTPROC ")
+
+
+_NUMBER = st.sampled_from(["1.", "-2.5", ".125", "-0.0001", "1234.5678", "10", "0"])
+_CANONICAL_LINE = st.builds(
+    lambda parts, comment, eob: " ".join(p for p in parts if p) + comment + eob,
+    st.tuples(st.sampled_from(["", "N10", "N99999"]), st.sampled_from(["", "G00", "G1", "G03"]),
+              *[st.one_of(st.just(""), _NUMBER.map(lambda v, a=letter: a + v)) for letter in "XZIKRF"]),
+    st.sampled_from(["", " (CUT)"]), st.sampled_from(["", ";"]))
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.one_of(lines(), _CANONICAL_LINE), min_size=1, max_size=8), st.sampled_from(["\n", "\r\n", "\r"]))
+def test_the_light_stream_is_the_block_stream_with_canonical_lines_left_unmade(lines_, eol):
+    """``light=True`` gives a CanonicalLine where the full stream gives a canonical block: the
+    same line, text, ending and fields, the same words, and ``block()`` makes the same block."""
+    raw = [line + eol for line in lines_]
+    full = list(read_blocks(raw, "t.nc"))
+    light = list(read_blocks(raw, "t.nc", light=True))
+    assert len(full) == len(light)
+    for block, item in zip(full, light):
+        if type(item) is CanonicalLine:
+            assert block.fields is not None
+            assert (item.line, item.text, item.eol, item.fields) == (block.line, block.text, block.eol, block.fields)
+            assert item.words == block.words
+            made = item.block()
+            assert (made.kind, made.label, made.codes, made.detail, made.raw) == \
+                   (block.kind, block.label, block.codes, block.detail, block.raw)
+        else:
+            assert block.fields is None and item.text == block.text
