@@ -34,7 +34,7 @@ from typing import Callable, Iterable, Iterator
 import numpy as np
 
 from ..interpret import gcodes as G
-from ..syntax.blocks import Block
+from ..syntax.blocks import Block, Word
 from ..diagnostics import Location, PostprocError, Reporter, SafetyError, UnplannableBlock
 from ..machine import bounds
 from ..machine.bounds import MAX_TOLERANCE
@@ -212,6 +212,7 @@ class Entry:
     refusal: PostprocError | None = None  #: found while correcting the batch, raised when the step is reached
     kept: bool = False  #: left as it is (keep_unplannable): its neighbours meet it, it does not move to meet them
     axes: str = "XZ"  #: the axes its replacement is written with (a type I cycle's approach: one)
+    moving: Word | None = None  #: its first word that moves another axis (C, Y...): the block is never split
 
     @property
     def edited(self) -> bool:
@@ -276,6 +277,8 @@ class Rewriter:
         self._allowances: dict[bool, tuple[float, float]] = {}  # for the last check, by inch
         self._grid_steps: dict[bool, tuple[float, float]] = {}  # by inch
         self._limits: dict[tuple[float, bool], Limits] = {}  # by tolerance and inch
+        self._others = frozenset(profile.axes) - {"X", "Z"}  # the machine's other axes
+        self._other_values: dict[str, float] = {}  # where each other axis was last sent, as written (absolute)
 
     # ------------------------------------------------------------------ streaming
 
@@ -284,6 +287,8 @@ class Rewriter:
         self.mode_now = self.original_mode = None
         for batch in self._corrected(self.steps):
             for entry in batch:
+                if self._others:
+                    entry.moving = self._moving_word(entry.step)
                 if self._pending is None and entry.step.contour_start and entry.step.cycle in monotone.ONE_WAY_CYCLES:
                     self._pending = []
                 if self._pending is not None:  # a G71/G72 contour is settled as a whole, then written
@@ -304,6 +309,31 @@ class Rewriter:
                     else "written with their macro values as numbers")
             self.reporter.warn(f"{len(self.macro_lines)} blocks in all {done} (--macro-values "
                                f"{self.request.macro_values}); the first {NAMED} are named above", Location(self.file))
+
+    def _moving_word(self, step: Step) -> Word | None:
+        """The first word of the block that moves another axis of the machine, in program order:
+        a value that differs from where the axis was last sent, any incremental value but 0
+        (H for C, V for Y), any expression. A CAM post's ``Y0.`` on every block moves nothing."""
+        block = step.block
+        if block.fields is not None:  # canonical: N G X Z I K R F only
+            return None
+        if block.statement is not None or not step.interpreted or any(
+                (letter, value) in _CALLS for letter, value in block.codes):
+            self._other_values.clear()  # a jump or a call: where the axes stand is no longer known
+        moving = None
+        for word in block.words:
+            letter = _INCREMENTAL_OF.get(word.letter, word.letter)
+            if letter not in self._others:
+                continue
+            number = float(word.value) if type(word.value) is str else None
+            incremental = word.letter in _INCREMENTAL_OF or not step.modal.absolute
+            if number is None or (number != 0.0 if incremental else self._other_values.get(letter) != number):
+                moving = moving or word
+            if number is not None and not incremental:
+                self._other_values[letter] = number
+            elif number != 0.0:
+                self._other_values.pop(letter, None)
+        return moving
 
     def _take(self, entry: Entry) -> Iterator[str]:
         """One step in program order: a motion step is planned, joined to the motion step
@@ -639,7 +669,7 @@ class Rewriter:
                 self._said_macro(block, word, "its macro values are written as numbers (--macro-values numbers): "
                                               "the block no longer follows the variables it reads")
         cuts = self._cuts(entry)
-        _one_block_for_other_axes(block, len(cuts), self.profile, self.file, joined=True)  # joins may have split it
+        _one_block_for_other_axes(entry, len(cuts), self.file, joined=True)  # joins may have split it
         self._within_limits(step, cuts)
         writer = Writer(self._grid(step), self.profile.gcode_system, step.modal.absolute, entry.axes)
         lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
@@ -735,8 +765,8 @@ class Rewriter:
                     edit = entry.edits[index] = _as_it_is(move)
                 if edit is not None:
                     edit.plans = [self._plan(step, target, edit.held.get(i)) for i, target in enumerate(edit.targets)]
-            _one_block_for_other_axes(step.block, sum(len(plan.cuts) for edit in entry.edits if edit is not None
-                                                      for plan in edit.plans), self.profile, self.file)
+            _one_block_for_other_axes(entry, sum(len(plan.cuts) for edit in entry.edits if edit is not None
+                                                 for plan in edit.plans), self.file)
         except UnplannableBlock as exc:
             if not self.request.keep_unplannable:
                 raise
@@ -1124,7 +1154,7 @@ _REMEDIES = {
 _WORDS_OF = {RESOLUTION: "XZUW", RADIUS_CHECK: "RIK", TOLERANCE: "XZUW", BLOCK_TIME: "F", INTERFERENCE: "XZUW"}
 
 
-def _one_block_for_other_axes(block: Block, count: int, profile: MachineProfile, file: str, joined: bool = False) -> None:
+def _one_block_for_other_axes(entry: Entry, count: int, file: str, joined: bool = False) -> None:
     """Refuse to split a block that also moves another axis of the machine (C, Y, B...).
 
     Its X and Z are corrected and may become several blocks; the other axis's word would then
@@ -1134,14 +1164,10 @@ def _one_block_for_other_axes(block: Block, count: int, profile: MachineProfile,
     interpolation with X and Z follows the block's own path, not the corrected pieces), so
     such a block is written as one block or not at all. ``count``: the blocks planned for it;
     ``joined``: counted after the joins with its neighbours, too late to leave it as it is."""
-    others = set(profile.axes) - set("XZ")
-    if not others:
+    word = entry.moving
+    if word is None or count <= 1:
         return
-    if count <= 1:
-        return
-    word = next((w for w in block.words if w.letter in others), None)
-    if word is None:
-        return
+    block = entry.step.block
     cause = (f"its {word.letter} move would stand on the first of the {count} blocks that replace it, "
              f"and {word.letter} would finish its whole move there")
     remedy = f"give the {word.letter} move a block of its own in the program"
@@ -1154,6 +1180,12 @@ def _one_block_for_other_axes(block: Block, count: int, profile: MachineProfile,
         f"block cannot be compensated: {cause} ({OTHER_AXIS}); to go on, {remedy}",
         Location(file, block.line, word.col + 1, block.text), OTHER_AXIS, f"{cause} ({OTHER_AXIS})")
 
+
+#: M98/M99 and G65/G66 (as the reader keys G codes): a call or return, after which the other axes' places are unknown
+_CALLS = {("M", "98"), ("M", "99"), ("G", 650), ("G", 660)}
+
+#: The incremental address of another axis (FANUC G-code system A): H for C, V for Y.
+_INCREMENTAL_OF = {"H": "C", "V": "Y"}
 
 #: The limit a block moving another axis meets when its correction needs more than one block.
 OTHER_AXIS = "another axis in the block"

@@ -392,3 +392,24 @@ def test_a_block_that_moves_another_axis_is_never_split(axes, word, motion):
     assert f"{motion} {word}\n" in out and rewriter.unplannable == [(4, "another axis in the block")]
     out, _ = rewrite(text, radial(0.002), profile=profile, tolerance=0.001)  # a constant shift: one block
     assert out.count(word) == 1
+
+
+@pytest.mark.parametrize("before, word, split", [
+    ("Y0.", "Y0.", True),  # where Y already is: no move, the block may become several
+    ("C30.", "C30.", True),
+    ("Y5.", "Y0.", False),  # a move
+    ("", "C30.", False),  # where C stood is not known: a move
+    ("C30.", "H0.", True), ("C30.", "H10.", False),  # incremental C
+])
+def test_an_other_axis_word_that_moves_nothing_lets_the_block_split(before, word, split):
+    """A CAM post writes Y0. on every block of a mill-turn program: a word that sends its axis
+    where it already is moves nothing, so the block is compensated as any other; a word that
+    moves the axis, or whose start is not known, keeps the block whole or refuses it."""
+    profile = replace(DEFAULT, axes="XZCY")
+    text = f"G18 G21 G99\nG00 X20. Z5. {before}\nG01 Z0. F0.1\nG01 X60. Z-40. {word}\nG00 X100.\n"
+    if split:
+        out, rewriter = rewrite(text, wave(0.01), profile=profile, tolerance=0.001)
+        assert rewriter.emitted > rewriter.replaced and out.count(word) == text.count(word)
+    else:
+        with pytest.raises(SafetyError, match=f"its {word[0]} move would stand on the first of the"):
+            rewrite(text, wave(0.01), profile=profile, tolerance=0.001)
