@@ -11,7 +11,7 @@ import pytest
 from support import REPO, SAMPLES
 from postproc import diagnostics
 from postproc.interpret import interpreter
-from postproc.compensate import rewrite
+from postproc.compensate import self_check
 from postproc.diagnostics import EXIT_INTERNAL, EXIT_REFUSED, InterpretationError, Location
 
 HEMISHELL = str(SAMPLES / "programs" / "hemishell.nc")
@@ -99,7 +99,7 @@ def test_a_bug_in_the_reader_of_the_self_check_is_an_internal_error(run, tmp_pat
         raise IndexError("list index out of range")
         yield  # a generator, as read_blocks is
 
-    monkeypatch.setattr(rewrite, "read_blocks", broken)
+    monkeypatch.setattr(self_check, "read_blocks", broken)
     result, output = _compensate(run, tmp_path)
     assert result.exit_code == EXIT_INTERNAL and "internal error: IndexError" in result.stderr
     assert result.stdout == "" and not output.exists()

@@ -86,11 +86,11 @@ def test_the_last_check_passes_the_compensations_it_should(run):
 
 def test_the_last_check_sees_every_replaced_block(run, monkeypatch):
     """It runs on each written replacement, and cheaply: one measure per written cut."""
-    from postproc.compensate import rewrite
+    from postproc.compensate import self_check
 
     measured = []
-    real = rewrite.within
-    monkeypatch.setattr(rewrite, "within", lambda cut, segment, allowed: measured.append(cut) or real(cut, segment,
+    real = self_check.within
+    monkeypatch.setattr(self_check, "within", lambda cut, segment, allowed: measured.append(cut) or real(cut, segment,
                                                                                                     allowed))
     result = run("compensate", HEMISHELL, *TRACES)
     assert result.exit_code == 0

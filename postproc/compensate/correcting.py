@@ -1,0 +1,250 @@
+"""Correcting: each move split into pieces where an axis reverses, the pieces of a batch of steps
+corrected in one call, and the targets the corrections make.
+
+One phase of :class:`~postproc.compensate.rewrite.Rewriter`, as the interpreter keeps each of its
+phases in a module of its own: the methods here work on the Rewriter's state and hold none of
+their own."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..diagnostics import Location, SafetyError
+from ..geometry import Arc, Line, reversal_params_of, segment_of
+from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
+from . import monotone
+from .compensator import Piece
+from .edits import Edit, Entry
+from .segmenter import Target, measure_bends, sample_params
+
+STEPS = (0.0005, 0.001)  #: the output grid's x and z steps (radius mm) of a metric diameter program
+
+
+def sample_lines(parts: list[Piece]) -> None:
+    """Sample the points of every straight piece in one array pass (``Line.point_at``'s
+    arithmetic, point for point): a program of short lines has thousands of them."""
+    straight = [piece for piece in parts if type(piece.segment) is Line and "points" not in piece.__dict__]
+    if not straight:
+        return
+    counts = [len(piece.t) for piece in straight]
+    lines = [piece.segment for piece in straight]
+    start = np.repeat(np.array([(line.x0, line.z0) for line in lines]), counts, axis=0)
+    delta = np.repeat(np.array([(line.x1 - line.x0, line.z1 - line.z0) for line in lines]), counts, axis=0)
+    points = start + np.concatenate([piece.t for piece in straight])[:, None] * delta
+    points.setflags(write=False)
+    first = 0
+    for piece, count in zip(straight, counts):
+        piece.__dict__["points"] = points[first : first + count]  # what the cached property would compute
+        first += count
+
+
+def _travel(dx: float, dz: float, last: tuple[int, int], steps: tuple[float, float]) -> tuple[int, int]:
+    """Which way each axis runs over a piece that moves it by (dx, dz): the sign of that travel,
+    or the way the axis last ran when it travels less than half a step of the output grid
+    (an axis the control does not move keeps its backlash where it was; so does one that
+    only wanders by less, as an arc does about an apex it barely passes)."""
+    x = (dx > 0.0) - (dx < 0.0) if abs(dx) >= steps[0] / 2.0 else last[0]
+    z = (dz > 0.0) - (dz < 0.0) if abs(dz) >= steps[1] / 2.0 else last[1]
+    return x, z
+
+
+def pieces(move: Move, last: tuple[int, int] = (0, 0), steps: tuple[float, float] = STEPS,
+           turns: list[float] | None = None) -> list[Piece]:
+    """A move split where an axis reverses, so direction-dependent corrections act per side.
+
+    ``last`` is the direction each axis last travelled in before the move; ``steps`` the
+    output grid's steps in x and z (radius mm). Only reversals the grid can see count
+    (:func:`_turns`; ``turns``: what it gives for an arc move, when already worked out).
+    """
+    segment = segment_of(move)
+    if isinstance(segment, Line):
+        bounds = [0.0, 1.0]
+    else:
+        bounds = [0.0, *(_turns(segment, steps) if turns is None else turns), 1.0]
+    result = []
+    for a, b in zip(bounds, bounds[1:]):
+        if isinstance(segment, Line) or (len(bounds) == 2 and segment.r1 is None):
+            part = segment  # the whole move: part(0, 1) would be the same arc
+        else:
+            part = segment.part(a, b)
+        (x0, z0), (x1, z1) = part.start, part.end
+        last = _travel(x1 - x0, z1 - z0, last, steps)
+        result.append(Piece(move, part, sample_params(part), *last))
+    return result
+
+
+def _turns(arc: Arc, steps: tuple[float, float], found: list[float] | None = None) -> list[float]:
+    """The parameters where an axis of the arc reverses, as far as the output grid can see.
+
+    A reversal counts when the axis travels at least half a grid step on either side of it
+    (up to the arc's ends or the axis's next reversal) and leaves a piece of at least one
+    step each way. Less is below what the control commands: an R arc whose end lies a hair
+    past an apex (its centre, worked out from R, sits nanometres off the end's axis) turns
+    the axis back by picometres, and a piece that short has no block of its own.
+
+    ``found``: the arc's :meth:`Arc.reversal_params`, when already worked out.
+    """
+    if found is None:
+        found = arc.reversal_params()
+    if not found:
+        return found
+    length = arc.length
+    shortest = max(steps) / length if length > 0.0 else math.inf
+    theta0, sweep = arc.theta0, arc.sweep
+    kept: list[float] = []
+    previous = 0.0
+    for index, t in enumerate(found):
+        theta = theta0 + t * sweep
+        axis = 0 if abs(math.sin(theta)) < 0.5 else 1  # x turns where sin(theta) = 0, z where cos(theta) = 0
+        same = [u for u in found if u != t and (abs(math.sin(theta0 + u * sweep)) < 0.5) == (axis == 0)]
+        before = max([u for u in same if u < t], default=0.0)
+        after = min([u for u in same if u > t], default=1.0)
+        cosine_or_sine = (math.cos, math.sin)[axis]
+
+        def value(u: float) -> float:  # the axis about the centre at parameter u, the radius drifting on a spiral
+            return cosine_or_sine(theta0 + u * sweep) * float(arc.radius_at(u))
+
+        here = value(t)
+        travel = min(abs(here - value(before)), abs(value(after) - here))
+        following = found[index + 1] if index + 1 < len(found) else 1.0
+        if travel >= steps[axis] / 2.0 and t - previous >= shortest and following - t >= shortest:
+            kept.append(t)
+            previous = t
+    return kept
+
+
+def travel_after(move: Move, last: tuple[int, int], steps: tuple[float, float] = STEPS,
+                 turns: list[float] | None = None) -> tuple[int, int]:
+    """The direction each axis last travelled in, once ``move`` has run: an arc's is that of
+    its last piece (as :func:`pieces` splits it; ``turns`` as there).
+
+    Worked out with floats, not the geometry's arrays: it runs for every move of the
+    program, compensated or not."""
+    if not move.known or move.kind not in (LINE, ARC, RAPID) or not move.exact:
+        return (0, 0) if not move.known else last
+    if move.xc is None:
+        return _travel(move.x1 - move.x0, move.z1 - move.z0, last, steps)
+    if (move.x0, move.z0) == (move.xc, move.zc) == (move.x1, move.z1):
+        return last
+    arc = segment_of(move)
+    if arc.sweep == 0.0:
+        return last
+    if turns is None:
+        turns = _turns(arc, steps)
+    (x0, z0) = arc.part(turns[-1], 1.0).start if turns else (move.x0, move.z0)
+    return _travel(move.x1 - x0, move.z1 - z0, last, steps)
+
+
+class Correcting:
+    """Correcting, mixed into :class:`~postproc.compensate.rewrite.Rewriter`."""
+
+    def _candidate(self, step: Step, move: Move) -> bool:
+        return (
+            step.interpreted
+            and not step.shared
+            and move.kind in (LINE, ARC)
+            and move.exact
+            and move.known
+            and (move.kind == ARC or (move.x0, move.z0) != (move.x1, move.z1))  # a line of no length: nothing to move
+            and move.role in (RUN, CONTOUR, CORNER)
+            and step.block.delete is None
+            and not (step.contour_start and step.cycle in monotone.ONE_WAY_CYCLES)  # the approach: it meets the shape
+            and self.selects(step, move)
+        )
+
+    def _correct(self, batch: list[Entry]) -> None:
+        """Give each motion step of the batch its edits (None for a move left as it is)."""
+        wanted: list[tuple[Entry, int, list[Piece]]] = []
+        turns = self._turns_of(batch)
+        for entry in batch:
+            if not entry.motion:
+                continue
+            step = entry.step
+            entry.edits = [None] * len(step.moves)
+            steps = self._steps(step)
+            for index, move in enumerate(step.moves):
+                mine = turns.get(id(move))
+                if self._candidate(step, move):
+                    wanted.append((entry, index, pieces(move, self._last_travel, steps, mine)))
+                if move.role in (RUN, CONTOUR, CORNER):
+                    self._last_travel = travel_after(move, self._last_travel, steps, mine)
+        if not wanted:
+            return
+        every = [piece for _, _, parts in wanted for piece in parts]
+        sample_lines(every)
+        shifts = self.corrector(every)
+        given = [shift for shift in shifts if shift is not None]
+        if given:  # the largest correction of each corrected piece, in one pass
+            starts = np.cumsum([0] + [len(shift) for shift in given[:-1]])
+            joined = np.concatenate(given) if len(given) > 1 else given[0]
+            sizes = iter(np.maximum.reduceat(np.hypot(joined[:, 0], joined[:, 1]), starts).tolist())
+        first = 0
+        lines: list[Target] = []  # the straight targets, for measure_bends
+        for entry, index, parts in wanted:
+            mine = shifts[first : first + len(parts)]
+            first += len(parts)
+            if all(shift is None for shift in mine):
+                continue
+            targets, largest = [], 0.0
+            for piece, shift in zip(parts, mine):
+                if shift is None:
+                    shift = np.zeros((len(piece.t), 2))
+                else:
+                    size = next(sizes)
+                    if size > self.max_correction and entry.refusal is None:  # raised in program order
+                        entry.refusal = SafetyError(f"a correction of {size:.4f} mm exceeds the maximum correction "
+                                                    f"{self.max_correction:g} mm (--max-correction)",
+                                                    Location(self.file, piece.move.line))
+                    largest = max(largest, size)
+                targets.append(Target.along(piece.segment, piece.t, shift, piece.points))
+            moved = largest > 0.0
+            if moved and (entry.kept or self._macro_kept(entry)):
+                continue  # left as it is: its correction is not applied
+            self.largest = max(self.largest, largest)
+            if moved:
+                edit = Edit(parts[0].move, _merge_continuous(targets, self._tolerance(entry.step) / 10.0))
+                entry.edits[index] = edit
+                if type(edit.targets[0].nominal) is Line:
+                    lines.append(edit.targets[0])
+        measure_bends(lines)
+
+    def _turns_of(self, batch: list[Entry]) -> dict[int, list[float]]:
+        """:func:`_turns` of every arc move of the batch's motion steps (by ``id`` of the move),
+        their reversal parameters found in one array pass: :func:`pieces` and
+        :func:`travel_after` both need them, for every arc of the program."""
+        arcs: list[Arc] = []
+        owners: list[tuple[Move, tuple[float, float]]] = []
+        for entry in batch:
+            if not entry.motion:
+                continue
+            steps = self._steps(entry.step)
+            for move in entry.step.moves:
+                if move.kind == ARC and move.xc is not None and move.known and move.exact:
+                    arcs.append(segment_of(move))
+                    owners.append((move, steps))
+        return {id(move): _turns(arc, steps, found)
+                for (move, steps), arc, found in zip(owners, arcs, reversal_params_of(arcs))}
+
+
+def _merge_continuous(targets: list[Target], gap: float) -> list[Target]:
+    """Pieces of one arc whose corrections meet are planned as one target."""
+    merged = [targets[0]]
+    for target in targets[1:]:
+        last = merged[-1]
+        if (
+            isinstance(last.nominal, Arc)
+            and isinstance(target.nominal, Arc)
+            and math.dist(last.end, target.start) <= gap
+        ):
+            a, b = last.nominal, target.nominal
+            end = b.end_radius
+            whole = Arc(a.xc, a.zc, a.r, a.theta0, a.sweep + b.sweep, None if abs(end - a.r) < 1e-12 else end)
+            share = a.sweep / whole.sweep
+            t = np.concatenate([last.t * share, share + target.t[1:] * (1 - share)])
+            d = np.concatenate([last.d, target.d[1:]])
+            merged[-1] = Target(whole, t, d)
+        else:
+            merged.append(target)
+    return merged

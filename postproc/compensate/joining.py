@@ -1,0 +1,126 @@
+"""Joins: how the end of one motion step meets the start of the next once either moved (the
+previous line moved to meet it, a connecting G01, or an end point written out absolutely).
+
+One phase of :class:`~postproc.compensate.rewrite.Rewriter`, as the interpreter keeps each of its
+phases in a module of its own: the methods here work on the Rewriter's state and hold none of
+their own."""
+
+from __future__ import annotations
+
+from ..interpret import gcodes as G
+from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Step
+from ..syntax.blocks import Block
+from .edits import NUMBERS, Entry, _as_it_is, _group, macro_word
+from .segmenter import Cut
+
+JOIN = 1e-9  #: nominal points closer than this are the same point
+
+
+class Joining:
+    """Joins, mixed into :class:`~postproc.compensate.rewrite.Rewriter`."""
+
+    def _join(self, previous: Entry, entry: Entry | None) -> None:
+        """Settle how the last move of ``previous`` meets the first move of ``entry``."""
+        moves = [m for m in previous.step.moves if m.role in (RUN, CONTOUR, CORNER)]
+        last_move = moves[-1]
+        last_edit = previous.edits[previous.step.moves.index(last_move)]
+        if entry is None:  # the program ends: nothing follows from the nominal end
+            return
+        firsts = [m for m in entry.step.moves if m.role in (RUN, CONTOUR, CORNER)]
+        first_move = firsts[0]
+        first_edit = entry.edits[entry.step.moves.index(first_move)]
+        connected = (
+            None not in (last_move.x1, last_move.z1, first_move.x0, first_move.z0)
+            and abs(last_move.x1 - first_move.x0) < JOIN
+            and abs(last_move.z1 - first_move.z0) < JOIN
+            and (last_move.role == CONTOUR) == (first_move.role == CONTOUR)
+        )
+        if self._has_corner(previous.step.block) and first_edit is not None and not previous.edited:
+            if self._macro_kept(previous, entry):  # the corner cannot be written out: the follower stays too
+                entry.edits = [None] * len(entry.step.moves)
+                first_edit = None
+            else:
+                self._explicit(previous)
+                last_edit = previous.edits[previous.step.moves.index(last_move)]
+        if not connected:  # the next move does not start from here (a contour's end, a jump): nothing to join
+            return
+        nominal = (last_move.x1, last_move.z1)
+        if last_edit is None and first_edit is None:
+            return
+        if last_edit is not None and first_edit is not None:
+            first_edit.lead_in = self._connector(last_edit.end, first_edit.start, entry.step)  # None when they meet
+            return
+        if first_edit is not None:  # only the following move changed: meet its new start
+            if self._simple(previous) and not previous.step.contour_start:
+                self._retarget(previous, end=first_edit.start)
+            elif self._one_way is not None and previous is self._one_way.approach and self._one_way.movable:
+                axes = self._one_way.movable  # the approach ends at the new start in the axes it moves
+                end = tuple(first_edit.start[axis] if "XZ"[axis] in axes else nominal[axis] for axis in (0, 1))
+                self._retarget(previous, end=end)
+                previous.axes = axes
+                first_edit.lead_in = self._connector(end, first_edit.start, entry.step)
+            else:
+                first_edit.lead_in = self._connector(nominal, first_edit.start, entry.step)
+            return
+        # only the previous move changed: the following one starts where it ends now
+        if last_edit.end == nominal:
+            return
+        if not self._simple(entry):
+            last_edit.lead_out = self._connector(last_edit.end, nominal, previous.step)
+        elif self._end_would_move(entry, last_edit.end, nominal):
+            self._retarget(entry, start=last_edit.end)
+
+    def _simple(self, entry: Entry) -> bool:
+        """A block with one plain line or rapid that can be rewritten with other end points."""
+        step = entry.step
+        return (
+            not entry.kept
+            and len(step.moves) == 1
+            and self.inside(step, step.moves[0])
+            and step.moves[0].kind in (LINE, RAPID)
+            and step.moves[0].exact
+            and step.moves[0].known
+            and step.moves[0].role in (RUN, CONTOUR)
+            and step.interpreted
+            and step.block.delete is None
+            and not self._has_corner(step.block)
+            and step.block.statement is None
+            and (self.request.macro_values == NUMBERS or macro_word(step.block) is None)
+            and (step.block.fields is not None  # canonical: no G code but G00-G03
+                 or not any(letter == "G" and _group(value, self.profile.gcode_system) in (G.ONE_SHOT, None)
+                            for letter, value in step.block.codes))
+        )
+
+    def _end_would_move(self, entry: Entry, start, nominal) -> bool:
+        """Whether the block, started from ``start`` instead of ``nominal``, would end elsewhere.
+
+        It does when an axis that moved is omitted from the block or given incrementally
+        (U/W, or X/Z under G91 in systems B and C).
+        """
+        letters = {letter for letter, _ in entry.step.block.codes}
+        absolute = entry.step.modal.absolute
+        grid = self._grid(entry.step)
+        moved_x = grid.x_word(start[0]) != grid.x_word(nominal[0])
+        moved_z = grid.z_word(start[1]) != grid.z_word(nominal[1])
+        fixed_x = "X" in letters and absolute
+        fixed_z = "Z" in letters and absolute
+        return (moved_x and not fixed_x) or (moved_z and not fixed_z)
+
+    @staticmethod
+    def _retarget(entry: Entry, start=None, end=None) -> None:
+        old_start, old_end = entry.retarget or (None, None)
+        entry.retarget = (start or old_start, end or old_end)
+
+    @staticmethod
+    def _has_corner(block: Block) -> bool:
+        return block.fields is None and any(letter in (",C", ",R") for letter, _ in block.codes)
+
+    def _explicit(self, entry: Entry) -> None:
+        """Write a corner block's geometry out, so the control no longer computes the corner."""
+        entry.edits = [_as_it_is(move) if move.kind in (LINE, ARC) and move.known else None for move in entry.step.moves]
+
+    def _connector(self, start, end, step: Step) -> Cut | None:
+        a, b = self._snap(step, start), self._snap(step, end)
+        if a == b:
+            return None
+        return Cut(a[0], a[1], b[0], b[1])

@@ -1,0 +1,91 @@
+"""The self-check: every replacement read back through the interpreter as the control will read it
+and measured against what was planned, and held near the programmed path whatever the options.
+
+One phase of :class:`~postproc.compensate.rewrite.Rewriter`, as the interpreter keeps each of its
+phases in a module of its own: the methods here work on the Rewriter's state and hold none of
+their own."""
+
+from __future__ import annotations
+
+import operator
+from dataclasses import replace
+
+from ..diagnostics import PostprocError, Reporter, SafetyError
+from ..geometry import segment_of
+from ..interpret.interpreter import Interpreter
+from ..interpret.motion import ARC, LINE, RAPID, Move
+from ..syntax.reader import read_blocks
+from .edits import Entry, _cut_of, _where
+from .farthest import farthest, within
+from .segmenter import Cut
+
+
+class SelfCheck:
+    """The self-check, mixed into :class:`~postproc.compensate.rewrite.Rewriter`."""
+
+    def _self_check(self, entry: Entry, lines: list[str], cuts: list[Cut]) -> None:
+        """Read the replacement back as the control will and check it is what was measured.
+
+        Each plan's deviation from its target was measured on the control's model of its
+        blocks (end points on the grid, arcs about the centre their rounded I and K give).
+        Reading the written text back through the interpreter must give exactly those
+        blocks; then the measured deviation is the deviation of what the control will run.
+        """
+        step = entry.step
+        first = cuts[0]
+        checker = self._checker
+        if checker is None:
+            checker = self._checker = Interpreter(replace(self.profile, name="self-check"), Reporter(),
+                                                  self.file)
+        checker.x, checker.z = first.x0, first.z0
+        checker.modal = checker.with_motion(step.modal, self.mode_now)
+        moves: list[Move] = []
+        try:
+            for block in read_blocks(lines, "<replacement>"):
+                moves.extend(checker.step(block).moves)
+        except PostprocError as exc:  # the replacement must parse and interpret; anything else is a bug (exit 5)
+            raise SafetyError(f"self-check: the replacement does not read back ({exc.message})",
+                              _where(self.file, step)) from None
+        if len(moves) != len(cuts):
+            raise SafetyError(f"self-check: {len(cuts)} moves planned, {len(moves)} read back", _where(self.file, step))
+        for planned, move in zip(cuts, moves):
+            got = _cut_of(move)
+            if got != planned and max(map(abs, map(operator.sub, _numbers(planned), _numbers(got)))) > 1e-9:
+                raise SafetyError(f"self-check: a block reads back as {got}, planned {planned}", _where(self.file, step))
+        tolerance = self._tolerance(step)
+        for edit in entry.edits:
+            for planned in (edit.plans if edit is not None else ()):
+                allowed = max(tolerance, planned.deviation if planned.widened else tolerance)
+                if not planned.deviation <= allowed * (1 + 1e-9):
+                    raise SafetyError(
+                        f"self-check: the replacement runs {planned.deviation * 1000:.2f} um from the intended path "
+                        f"(tolerance {tolerance * 1000:.2f} um)", _where(self.file, step))
+
+    def _near_nominal(self, entry: Entry, cuts: list[Cut]) -> None:
+        """No written cut may run further from the moves it replaces than the largest correction
+        plus the tolerance (:mod:`postproc.compensate.farthest`), whatever the options: the tolerance counts
+        at most :data:`bounds.MAX_TOLERANCE` here, a widened plan's at most twice that, and one
+        output step is allowed for the rounding of connecting moves."""
+        step = entry.step
+        tolerance, slack = self._allowance(step)
+        nominal = []
+        for move, edit in zip(step.moves, entry.edits or [None] * len(step.moves)):
+            if edit is not None:  # the pieces the targets were made of: the move itself
+                nominal += [target.nominal for target in edit.targets]
+                for planned in edit.plans:
+                    if planned.widened:
+                        tolerance = max(tolerance, min(planned.deviation, 2.0 * tolerance))
+            elif move.known and move.kind in (LINE, ARC, RAPID):
+                nominal.append(segment_of(move))
+        allowed = self.largest + tolerance + slack
+        for cut in cuts:
+            if not any(within(cut, segment, allowed) for segment in nominal):
+                distance = min(farthest(cut, segment) for segment in nominal)
+                raise SafetyError(
+                    f"the replacement would run {distance * 1000:.1f} um from the programmed path, more than the "
+                    f"largest correction ({self.largest * 1000:.2f} um) plus the tolerance ({tolerance * 1000:.2f} um) "
+                    "allow: refused", _where(self.file, step))
+
+
+def _numbers(cut: Cut) -> tuple[float, ...]:
+    return (cut.x0, cut.z0, cut.x1, cut.z1, cut.xc or 0.0, cut.zc or 0.0, float(bool(cut.cw)), float(cut.rapid))

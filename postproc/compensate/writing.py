@@ -1,0 +1,164 @@
+"""Writing: a step's replacement blocks (or the block as it was, byte for byte), its macro words by
+the policy asked for, the machine's soft limits; each replacement checked before it is given out.
+
+One phase of :class:`~postproc.compensate.rewrite.Rewriter`, as the interpreter keeps each of its
+phases in a module of its own: the methods here work on the Rewriter's state and hold none of
+their own."""
+
+from __future__ import annotations
+
+from typing import Iterator
+
+import numpy as np
+
+from ..diagnostics import Location, SafetyError
+from ..interpret import gcodes as G
+from ..interpret.motion import RAPID, Step
+from ..syntax.blocks import Block
+from .edits import NAMED, NUMBERS, REFUSE, Entry, _as_it_is, _group, _one_block_for_other_axes, _where, macro_word
+from .emitter import Style, Writer, with_motion_code
+from .segmenter import Cut
+
+
+class Writing:
+    """Writing, mixed into :class:`~postproc.compensate.rewrite.Rewriter`."""
+
+    def _write(self, entry: Entry) -> Iterator[str]:
+        step = entry.step
+        block = step.block
+        before = self.original_mode
+        self.original_mode = step.modal.motion
+        if not entry.edited and entry.retarget is None:
+            fields = block.fields
+            if fields is not None:  # a canonical block: G00-G03 at most, read from its fields
+                sets_mode = fields[1] is not None
+                relies = not sets_mode and any(value is not None for value in fields[2:6])  # X Z I K
+            else:
+                codes = [value for letter, value in block.codes if letter == "G"]
+                sets_mode = any(_group(value, self.profile.gcode_system) == G.MOTION for value in codes)
+                relies = (
+                    any(letter in "XZUWIK" for letter, _ in block.codes)
+                    and not sets_mode
+                    and not any(_group(value, self.profile.gcode_system) == G.ONE_SHOT for value in codes)
+                )
+            if relies and self.mode_now is not None and before is not None and self.mode_now != before:
+                writer = Writer(self._grid(step), self.profile.gcode_system, step.modal.absolute)
+                yield with_motion_code(block, writer.code(before, Style.of(block)))
+                self.mode_now = before
+                return
+            if sets_mode or self.mode_now is None:
+                self.mode_now = step.modal.motion
+            self._follow_contour(step, None)
+            yield block.raw
+            return
+        if self.request.macro_values == NUMBERS:
+            word = macro_word(block)
+            if word is not None:
+                self._said_macro(block, word, "its macro values are written as numbers (--macro-values numbers): "
+                                              "the block no longer follows the variables it reads")
+        cuts = self._cuts(entry)
+        _one_block_for_other_axes(entry, len(cuts), self.file, joined=True)  # joins may have split it
+        self._within_limits(step, cuts)
+        writer = Writer(self._grid(step), self.profile.gcode_system, step.modal.absolute, entry.axes)
+        lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
+        self._self_check(entry, lines, cuts)
+        self._near_nominal(entry, cuts)
+        self._follow_contour(step, cuts)
+        self.mode_now = mode
+        self.replaced += 1
+        self.emitted += len(lines)
+        yield from lines
+
+    def _cuts(self, entry: Entry) -> list[Cut]:
+        """The cuts that replace a step, each plan's share recorded for the self-check."""
+        step = entry.step
+        if entry.retarget is not None:
+            move = step.moves[0]
+            a = self._snap(step, entry.retarget[0] or (move.x0, move.z0))
+            b = self._snap(step, entry.retarget[1] or (move.x1, move.z1))
+            return [Cut(a[0], a[1], b[0], b[1], rapid=move.kind == RAPID)]
+        cuts: list[Cut] = []
+
+        def add(cut: Cut | None) -> None:
+            if cut is None:
+                return
+            if cuts and cuts[-1].end != cut.start:  # pieces that do not meet: a connecting move
+                cuts.append(Cut(*cuts[-1].end, *cut.start))
+            if cut.start != cut.end:
+                cuts.append(cut)
+
+        for index, (move, edit) in enumerate(zip(step.moves, entry.edits)):
+            if edit is None:
+                if move.kind == RAPID:
+                    a, b = self._snap(step, (move.x0, move.z0)), self._snap(step, (move.x1, move.z1))
+                    add(Cut(a[0], a[1], b[0], b[1], rapid=True))
+                    continue
+                edit = entry.edits[index] = _as_it_is(move)  # written out, for it shares the block with a change
+            add(edit.lead_in)
+            if not edit.plans:
+                edit.plans = [self._plan(step, target, edit.held.get(i)) for i, target in enumerate(edit.targets)]
+            for planned in edit.plans:
+                self.worst = max(self.worst, planned.deviation)
+                add(planned.cuts[0])
+                first = len(cuts) - 1
+                for cut in planned.cuts[1:]:
+                    add(cut)
+                edit.spans.append((first, len(cuts)))
+            add(edit.lead_out)
+        return cuts
+
+    def _macro_kept(self, entry: Entry, follower: Entry | None = None) -> bool:
+        """Whether a block whose geometry reads macro variables is to be left as it is (KEEP),
+        or the run refused (REFUSE, the error raised in program order); False when it may be
+        rewritten (NUMBERS, or no such word). ``follower``: the block that is left uncompensated
+        instead, for a corner block that would have to be written out to meet it."""
+        word = macro_word(entry.step.block)
+        policy = self.request.macro_values
+        if word is None or policy == NUMBERS:
+            return False
+        block = entry.step.block
+        where = Location(self.file, block.line, word.col + 1, block.text)
+        if policy == REFUSE:
+            if follower is not None:
+                raise _macro_refusal(word, where, f" (its corner meets the compensated block on line "
+                                                  f"{follower.step.block.line})")
+            if entry.refusal is None:
+                entry.refusal = _macro_refusal(word, where, "")
+            return True
+        kept = follower or entry
+        kept.kept = True
+        self.unplannable.append((kept.step.block.line, "macro values"))
+        reason = (f"the corner of line {block.line}, whose {word.text} reads a macro variable, meets it"
+                  if follower is not None else f"{word.text} reads a macro variable")
+        self._said_macro(kept.step.block, word if follower is None else None,
+                         f"block left uncompensated (--macro-values keep): {reason}")
+        return True
+
+    def _said_macro(self, block: Block, word, message: str) -> None:
+        """One of the blocks the macro-value policy acted on: the first few are named."""
+        self.macro_lines.append(block.line)
+        if len(self.macro_lines) <= NAMED:
+            col = word.col if word is not None else (block.words[0].col if block.words else 0)
+            self.reporter.warn(message, Location(self.file, block.line, col + 1, block.text))
+
+    def _within_limits(self, step: Step, cuts: list[Cut]) -> None:
+        """A compensated move must stay inside the machine's soft limits (the profile's)."""
+        for axis, limits, name in ((0, self.profile.x_limits, "x"), (1, self.profile.z_limits, "z")):
+            if limits is None:
+                continue
+            values = np.concatenate([cut.sample(1.0)[:, axis] for cut in cuts])
+            low, high = float(values.min()), float(values.max())
+            if low < limits[0] or high > limits[1]:
+                beyond = low if low < limits[0] else high
+                raise SafetyError(
+                    f"the compensated move reaches {name} = {beyond:.4f} mm, beyond the soft limit "
+                    f"{limits[0]:g} .. {limits[1]:g} mm of the machine profile",
+                    _where(self.file, step))
+
+
+def _macro_refusal(word, where: Location, detail: str) -> SafetyError:
+    return SafetyError(
+        f"{word.text} reads a macro variable: compensating this block{detail} writes its value as a number, and "
+        "the block would no longer follow the variable; give --macro-values keep to leave such blocks "
+        "uncompensated, or --macro-values numbers to write them as numbers (the compensated program then holds "
+        "only for the values the program gives its variables)", where)
