@@ -114,7 +114,7 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
         for block in blocks:
             if type(block) is CanonicalLine:
                 if steady:  # a canonical block changes none of what _steady reads
-                    moved = canonical_motion(block)
+                    moved = canonical_motion(block, block[2])  # its fields, read without the property
                     if moved is not None:
                         count += 1
                         moves += moved

@@ -28,15 +28,18 @@ from .blocks import BLANK, BLOCK, HEADER, NO_DETAIL, TAPE, Block, Comment, Detai
 # Canonical values: lengths with their decimal point (no least-input-increment scaling) and
 # at most 8 digits (no significant-digit alarm); a feed of at most 8 digits. ASCII digits only.
 _LENGTH = r"([+-]?+(?:\d{1,4}+\.\d{0,4}+|\.\d{1,4}+))"
-_CANONICAL = re.compile(
+_CANONICAL_FORM = (
     r"(?:N(\d++) ?)?"
     r"(?:G(0?[0-3]) ?)?"
     rf"(?:X{_LENGTH} ?)?(?:Z{_LENGTH} ?)?(?:I{_LENGTH} ?)?(?:K{_LENGTH} ?)?(?:R{_LENGTH} ?)?"
     r"(?:F(\d{1,4}+(?:\.\d{0,4}+)?+|\.\d{1,4}+) ?)?"
-    r"(?:\([^()\r\n]*\) ?)?;?",
-    re.ASCII,
+    r"(?:\([^()\r\n]*\) ?)?;?"
 )
-canonical_fields = _CANONICAL.fullmatch
+#: A canonical block's fields from its text (the line without its ending).
+canonical_fields = re.compile(_CANONICAL_FORM, re.ASCII).fullmatch
+#: The same from the line as read, with its ending (one: LF, CRLF or a lone CR), and not blank:
+#: the reader cuts the ending off a canonical line only when its block is made.
+canonical_line = re.compile(r"(?=[^\r\n])" + _CANONICAL_FORM + r"\r?\n?", re.ASCII).fullmatch
 
 _ORDINARY = re.compile(
     r"[ \t]*"
@@ -84,7 +87,7 @@ class CanonicalLine(tuple):
     canonical form (``line``, ``text``, ``fields``, and ``words`` for an error's column);
     :meth:`block` makes the block when more is needed.
 
-    Made as ``CanonicalLine((line, text, raw, fields))``, ``raw`` the line with its ending: a
+    Made as ``CanonicalLine((line, raw, fields))``, ``raw`` the line with its ending: a
     tuple subclass with named fields rather than a ``NamedTuple``, because the reader makes one
     per line and a named tuple is made through a Python ``__new__`` (or ``tuple.__new__``
     called through its wrapper), which costs about three times what this class, built by
@@ -93,25 +96,25 @@ class CanonicalLine(tuple):
     __slots__ = ()
 
     line = property(itemgetter(0), doc="1-based line number")
-    text = property(itemgetter(1), doc="the line without its ending")
-    raw = property(itemgetter(2), doc="the line with its ending")
-    fields = property(itemgetter(3), doc="the values of its N G X Z I K R F words as written, "
+    raw = property(itemgetter(1), doc="the line with its ending")
+    fields = property(itemgetter(2), doc="the values of its N G X Z I K R F words as written, "
                                          "None where absent (Block.fields)")
 
     def __repr__(self) -> str:
-        return f"CanonicalLine(line={self[0]!r}, text={self[1]!r}, raw={self[2]!r}, fields={self[3]!r})"
+        return f"CanonicalLine(line={self[0]!r}, raw={self[1]!r}, fields={self[2]!r})"
 
     @property
-    def eol(self) -> str:
-        """The line's ending, cut off only when asked: most lines never need it."""
-        return self[2][len(self[1]):]
+    def text(self) -> str:
+        """The line without its ending, cut off only when asked: most lines never need it."""
+        return self[1].rstrip("\r\n")
 
     def block(self) -> Block:
-        return canonical_block(self[0], self[1], self.eol, self[3])
+        text = self.text
+        return canonical_block(self[0], text, self[1][len(text):], self[2])
 
     @property
     def words(self) -> tuple[Word, ...]:
-        return detail_of_ordinary(self[1]).words
+        return detail_of_ordinary(self.text).words
 
 
 def canonical_block(line: int, text: str, eol: str, fields: tuple) -> Block:

@@ -18,7 +18,7 @@ from typing import Iterable, Iterator
 
 from .blocks import BLANK, BLOCK, NO_DETAIL, TAPE, TRAILER, Block
 from ..diagnostics import Location, Reporter
-from .fastpath import CanonicalLine, canonical_block, canonical_fields, read_ordinary
+from .fastpath import CanonicalLine, canonical_block, canonical_line, read_ordinary
 
 #: What may stand before a tape mark: spaces, and the byte order mark a Windows editor writes
 #: at the start of a file (the control reads nothing before the opening %).
@@ -38,16 +38,17 @@ def read_blocks(lines: Iterable[str], file: str, reporter: Reporter | None = Non
     """
     started = ended = False
     for line, raw in enumerate(lines, 1):
-        text = raw.rstrip("\r\n")  # one ending per line: LF, CRLF or a lone CR
-        if text and not ended:
-            match = canonical_fields(text)
+        if not ended:
+            match = canonical_line(raw)
             if match is not None:  # read_ordinary's first case, written out: most lines are canonical
                 started = True
                 if light:  # the line's ending is cut off only if the block is made
-                    yield CanonicalLine((line, text, raw, match.groups()))
+                    yield CanonicalLine((line, raw, match.groups()))
                 else:
+                    text = raw.rstrip("\r\n")
                     yield canonical_block(line, text, raw[len(text):], match.groups())
                 continue
+        text = raw.rstrip("\r\n")  # one ending per line: LF, CRLF or a lone CR
         eol = raw[len(text):]
         if ended:
             if text.strip() and reporter is not None and ended is True:

@@ -192,7 +192,7 @@ _CANONICAL_LINE = st.builds(
 @given(st.lists(st.one_of(lines(), _CANONICAL_LINE), min_size=1, max_size=8), st.sampled_from(["\n", "\r\n", "\r"]))
 def test_the_light_stream_is_the_block_stream_with_canonical_lines_left_unmade(lines_, eol):
     """``light=True`` gives a CanonicalLine where the full stream gives a canonical block: the
-    same line, text, ending and fields, the same words, and ``block()`` makes the same block."""
+    same line, text, raw line and fields, the same words, and ``block()`` makes the same block."""
     raw = [line + eol for line in lines_]
     full = list(read_blocks(raw, "t.nc"))
     light = list(read_blocks(raw, "t.nc", light=True))
@@ -200,7 +200,7 @@ def test_the_light_stream_is_the_block_stream_with_canonical_lines_left_unmade(l
     for block, item in zip(full, light):
         if type(item) is CanonicalLine:
             assert block.fields is not None
-            assert (item.line, item.text, item.eol, item.fields) == (block.line, block.text, block.eol, block.fields)
+            assert (item.line, item.text, item.raw, item.fields) == (block.line, block.text, block.raw, block.fields)
             assert item.words == block.words
             made = item.block()
             assert (made.kind, made.label, made.codes, made.detail, made.raw) == \
