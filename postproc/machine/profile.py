@@ -216,6 +216,16 @@ def _is_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
+def sha256(profile: MachineProfile) -> str:
+    """What identifies a profile beyond its name (which a profile file that sets none shares with
+    the embedded default): the SHA-256 of the file it was read from, as the provenance header's
+    ``PROFILE`` line gives it; for a profile made otherwise (a library call, the embedded
+    default), the SHA-256 of its settings as :func:`to_toml` writes them."""
+    if profile.source:
+        return profile.source_sha256
+    return hashlib.sha256(to_toml(profile).encode("utf-8")).hexdigest()
+
+
 def to_toml(profile: MachineProfile) -> str:
     """The profile as TOML that :func:`load` reads back (unset limits are left out)."""
     lines = [f"# machine profile {toml_string(profile.name)}"]

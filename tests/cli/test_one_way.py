@@ -10,6 +10,7 @@ import pytest
 from support import SAMPLES
 from support.cycles import turn_backs
 from postproc.compensate.models import build, dumps
+from postproc.machine.profile import DEFAULT
 
 SHAFT = ("G18 G21 G99\nG00 X60. Z5.\nG71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\nN10 G00 X20.\nG01 Z0. F0.1\n"
          "X30.\nZ-60.\nN20 X60.\nG70 P10 Q20\nM30\n")
@@ -38,7 +39,7 @@ def with_squareness(model_path, squareness: float, folder):
     path = folder / f"square{squareness:g}.json"
     path.write_text(dumps(build(data["plugin"], data["plugin_version"], model,
                                 [(entry["file"], entry["sha256"]) for entry in data["inputs"]],
-                                data["machine_profile"], data["options"], data["note"], data["measured"])))
+                                DEFAULT, data["options"], data["note"], data["measured"])))
     return path
 
 
