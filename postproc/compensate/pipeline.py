@@ -212,12 +212,14 @@ class Pipeline:
             self.reporter.warn("no feed move was changed (the program has none the compensators reach): it is "
                                "written as it was, under a provenance header", Location(name))
             return
-        tolerance = self.request.tolerance or self.profile.default_tolerance(False)
+        inch = max(rewriter.inch_grids or (False,), key=self.profile.default_tolerance)  # the units of the coarser
+        tolerance = self.request.tolerance or self.profile.default_tolerance(inch)
         if 0.0 < rewriter.largest <= tolerance:
+            grid = None if self.request.tolerance else self.profile.finer_output(inch, rewriter.largest)
             self.reporter.warn(f"the largest correction, {rewriter.largest * 1000:.2f} um, is within the tolerance in "
                                f"force, {tolerance * 1000:.2f} um: the written path may be no nearer the compensated "
-                               "path than the nominal one is (a finer --tolerance, or more output decimals in the "
-                               "machine profile, lets it follow)", Location(name))
+                               "path than the nominal one is " + (f"({grid})" if grid else "(a finer --tolerance, or "
+                               "more output decimals in the machine profile, lets it follow)"), Location(name))
 
     def _prologue(self, source: Source) -> tuple[list[tuple[str, str]], Step | None]:
         """The compensators' own opening blocks, (compensator, text) each read back, and the
