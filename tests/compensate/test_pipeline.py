@@ -12,7 +12,7 @@ import sys
 
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from support import SAMPLES
+from support import INCH_HEMISHELL, SAMPLES
 
 HEMISHELL = SAMPLES / "programs" / "hemishell.nc"
 CCW, CW = (str(SAMPLES / "ballbar" / f"v40r-100-{d}.csv") for d in ("ccw", "cw"))
@@ -162,19 +162,6 @@ def test_a_profile_made_in_a_library_call_is_identified_by_its_settings():
         from_mapping({"nose_radius_mm": 0.8}))
 
 
-INCH_DOME = """%
-O1003 (HEMISHELL IN INCHES)
-G18 G20 G40 G99
-T0101
-G00 X0. Z2.441
-G01 Z2.25 F0.003
-G03 X4.5 Z0. I0. K-2.25
-G01 X4.65
-G00 Z2.441
-M30
-%
-"""
-
 
 def test_an_inch_grid_whose_default_tolerance_swallows_the_correction_warns_naming_the_key(run, tmp_path):
     """Written to 0.001 in, the default tolerance is 50 um and the rounding alone 12.7 um, more
@@ -182,7 +169,7 @@ def test_an_inch_grid_whose_default_tolerance_swallows_the_correction_warns_nami
     profile key and the remedy. The same program on the default 0.0001 in grid warns without
     asking for decimals the control cannot read."""
     program = tmp_path / "inch.nc"
-    program.write_text(INCH_DOME)
+    program.write_text(INCH_HEMISHELL)
     machine = tmp_path / "inch3.toml"
     machine.write_text("output_decimals_inch = 3\n")
     fit = TRACES
