@@ -46,13 +46,14 @@ from .probe_program import DEFAULTS, program_options
 def command(center_x, center_z, artifact_radius, stylus_radius, clearance, overtravel, feed, travel_feed, tool,
             probe_on, probe_off, program_number, machine, output):
     """Write a FANUC probing program for one round of finding the calibration sphere's centre."""
+    cycle = Cycle(3, stylus_radius, clearance, overtravel, feed, travel_feed, program_number, 0.0, None, "face",
+                  code_digits(tool, "T"), code_digits(probe_on, "M"), code_digits(probe_off, "M"))
+    cycle.check()  # the options first: before any file is read
     guard([("--machine", machine)], [("-o", output)])
     if not artifact_radius > 0:
         raise OptionError(f"--artifact-radius {artifact_radius:g}: must be positive")
     profile = load(machine) if machine else DEFAULT
     reporter = Reporter(sys.stderr)
-    cycle = Cycle(3, stylus_radius, clearance, overtravel, feed, travel_feed, program_number, 0.0, None, "face",
-                  code_digits(tool, "T"), code_digits(probe_on, "M"), code_digits(probe_off, "M"))
     planned = plan_round((center_x, center_z), artifact_radius, cycle, profile)
     self_check(planned, profile)
     if tool is None:

@@ -586,12 +586,14 @@ def fit(plugins, ballbar, probe, calibration, options, machine, note, force, out
 @_reported
 def check(input, machine):
     """Parse and interpret a program: diagnostics only, no output program."""
+    from ..compensate.contours import WrittenContours
     from ..interpret.program import tally_source
 
     guard([("INPUT", input), ("--machine", machine)], [])
     reporter = Reporter(sys.stderr)
+    profile = _profile(machine)
     with Source(input) as source:
-        blocks, moves = tally_source(source, _profile(machine), reporter)
+        blocks, moves = tally_source(source, profile, reporter, WrittenContours(source.name, profile, reporter))
         name = source.name
     reporter.close()
     progress.inform(f"{name}: ok: {blocks} lines, {moves} moves, {len(reporter.warnings)} warnings")

@@ -29,8 +29,10 @@ from .common import FINITE, FROM_LINE, MACHINE, TO_LINE, examples, guard
 DEFAULTS = Cycle()
 _PROGRAM_OPTIONS = (
     click.option("--tool", metavar="TNNNN", help="Select the probe with this T code (e.g. T0909)."),
-    click.option("--probe-on", metavar="MNN", help="M code that switches the probe on."),
-    click.option("--probe-off", metavar="MNN", help="M code that switches the probe off."),
+    click.option("--probe-on", metavar="MNN", help="M code that switches the probe on (none: the machine does, e.g. "
+                                                   "with the tool change); needs --probe-off."),
+    click.option("--probe-off", metavar="MNN", help="M code that switches the probe off (none: the probe does, e.g. "
+                                                    "on a timer); needs --probe-on."),
     click.option("--program-number", type=int, default=DEFAULTS.program_number, show_default=True, metavar="N",
                  help="The O number of the probing program written."),
     MACHINE(help="A machine profile (TOML): G-code system, diameter mode, limits; without it, the embedded default."),
@@ -85,13 +87,14 @@ def command(program, points, per_feature, from_line, to_line, material, inset, s
     """Write a FANUC probing program (G31, DPRNT) for the profile of a part program."""
     if (datum_x is None) != (datum_z is None):
         raise UsageError("a datum is a point: give --datum-x and --datum-z together")
+    cycle = Cycle(points, stylus_radius, clearance, overtravel, feed, travel_feed, program_number, inset,
+                  None if datum_x is None else (datum_x, datum_z), datum_on, code_digits(tool, "T"),
+                  code_digits(probe_on, "M"), code_digits(probe_off, "M"), per_feature)
+    cycle.check()  # the options first: before any file is read
     guard([("PROGRAM", program), ("--machine", machine)], [("-o", output)])
     profile = load(machine) if machine else DEFAULT
     reporter = Reporter(sys.stderr)
     name, moves = read_program(program, profile, reporter)
-    cycle = Cycle(points, stylus_radius, clearance, overtravel, feed, travel_feed, program_number, inset,
-                  None if datum_x is None else (datum_x, datum_z), datum_on, code_digits(tool, "T"),
-                  code_digits(probe_on, "M"), code_digits(probe_off, "M"), per_feature)
     planned = plan(moves, nominal(moves, from_line, to_line, material, name), cycle, profile)
     self_check(planned, profile)
     for feature, count in zip(planned.features, planned.spread.counts):

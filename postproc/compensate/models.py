@@ -1,8 +1,8 @@
 """Saved compensation models: fit once, apply to any number of programs.
 
 A model file is JSON: the compensator's fitted model plus what it was made from (the
-inputs with their SHA-256, the machine profile's name, the time of the measurement, a
-note on the machine's state) and a SHA-256 over all of it. Reading refuses a file of
+inputs with their SHA-256, the machine profile's name and SHA-256, the time of the
+measurement, a note on the machine's state) and a SHA-256 over all of it. Reading refuses a file of
 another format or version and one whose content no longer matches its hash (edited by
 hand, or damaged). A model is data: it names its compensator, which must be installed;
 nothing in it is ever imported or executed.
@@ -22,6 +22,7 @@ from typing import Any
 from .. import __version__
 from ..files import inputs
 from ..diagnostics import Location, ModelError, Reporter
+from ..machine.profile import MachineProfile, sha256 as profile_sha256
 from ..measure.readers.csvfile import measured_time, parse_time
 
 FORMAT = "postproc model"
@@ -31,7 +32,7 @@ MAX_DEPTH = 32  #: no compensator's model nests deeper; deeper is not a model
 MAX_INTEGER = 2**53  #: integers beyond this are not plausible values (nor exact as floats)
 #: every key of a model file, and the type of its value
 KEYS = {"format": str, "version": int, "postproc": str, "plugin": str, "plugin_version": str, "machine_profile": str,
-        "measured": str, "created": str, "note": (str, type(None)), "inputs": list, "options": dict, "model": dict,
+        "machine_profile_sha256": str, "measured": str, "created": str, "note": (str, type(None)), "inputs": list, "options": dict, "model": dict,
         "sha256": str}
 _SHA256 = re.compile(r"^[0-9a-f]{64}$")
 
@@ -76,15 +77,18 @@ def _mtime(path: str) -> float | None:
     return info.st_mtime if stat.S_ISREG(info.st_mode) else None
 
 
-def build(plugin: str, plugin_version: str, model: dict[str, Any], inputs: list[tuple[str, str]], profile: str,
-          options: dict[str, Any], note: str | None, measured: str) -> dict[str, Any]:
+def build(plugin: str, plugin_version: str, model: dict[str, Any], inputs: list[tuple[str, str]],
+          profile: MachineProfile, options: dict[str, Any], note: str | None, measured: str) -> dict[str, Any]:
+    """A model file's content: the profile by its name and its SHA-256 (:func:`~postproc.machine.profile.sha256`),
+    for a profile file's name may be the default's."""
     payload = {
         "format": FORMAT,
         "version": VERSION,
         "postproc": __version__,
         "plugin": plugin,
         "plugin_version": plugin_version,
-        "machine_profile": profile,
+        "machine_profile": profile.name,
+        "machine_profile_sha256": profile_sha256(profile),
         "measured": measured,
         "created": dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat(),
         "note": note,
@@ -152,6 +156,8 @@ def _check(data: dict[str, Any], where: Location) -> None:
         if not (isinstance(entry, dict) and set(entry) == {"file", "sha256"} and isinstance(entry["file"], str)
                 and isinstance(entry["sha256"], str) and _SHA256.match(entry["sha256"])):
             raise ModelError(f"inputs[{index}] must be {{\"file\": name, \"sha256\": 64 hex digits}}", where)
+    if "machine_profile_sha256" in data and not _SHA256.match(data["machine_profile_sha256"]):
+        raise ModelError("'machine_profile_sha256' must be 64 hex digits (lower case)", where)
     for name, value in data["options"].items():
         if value is not None and not isinstance(value, (str, int, float, bool)):
             raise ModelError(f"options.{name} must be a number, a string or true/false", where)
@@ -194,13 +200,21 @@ def _kind(kind) -> str:
     return " or ".join(names.get(k, k.__name__) for k in kinds)
 
 
-def check_age(data: dict[str, Any], path: str, profile: str, max_age_days: float, reporter: Reporter) -> None:
-    """Warn when a model is older than the set age, or was made for another machine profile."""
-    measured = _time(data["measured"], "measured", Location(path))
+def check_age(data: dict[str, Any], path: str, profile: MachineProfile, reporter: Reporter) -> None:
+    """Warn when a model is older than the profile's ``model_max_age_days``, or was made under
+    another machine profile: another name, or the same name and other content (its SHA-256). A
+    model saved before the SHA-256 was recorded is compared by the name only."""
+    where = Location(path)
+    measured = _time(data["measured"], "measured", where)
     age = (dt.datetime.now(dt.timezone.utc) - measured).total_seconds() / 86400.0
-    if age > max_age_days:
-        reporter.warn(f"the model was measured {age:.0f} days ago (more than {max_age_days:g}); the machine may have "
-                      "changed since: measure again", Location(path))
-    if data["machine_profile"] != profile:
-        reporter.warn(f"the model was made for machine profile {data['machine_profile']!r}, not {profile!r}",
-                      Location(path))
+    if age > profile.model_max_age_days:
+        reporter.warn(f"the model was measured {age:.0f} days ago (more than {profile.model_max_age_days:g}); the "
+                      "machine may have changed since: measure again", where)
+    made, sha = data["machine_profile"], data.get("machine_profile_sha256")
+    if made != profile.name:
+        reporter.warn(f"the model was made for machine profile {made!r}, not {profile.name!r}", where)
+    elif sha is not None and sha != profile_sha256(profile):
+        this = f"{profile.source}, SHA-256" if profile.source else "its settings' SHA-256"
+        reporter.warn(f"the model was made under a machine profile {made!r} of other content (SHA-256 {sha[:12]}) than "
+                      f"this run's ({this} {profile_sha256(profile)[:12]}): make sure it is the same machine, or fit "
+                      "the model again with this --machine", where)

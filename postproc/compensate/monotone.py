@@ -17,18 +17,26 @@ axis only, or the cycle would become type II). Where a correction would make the
 back, the corrected path is held at the one-way bound instead (:func:`held`): a point
 sliding along the corrected path changes nothing; one held off it by more than the
 tolerance cannot be written, and the run is refused.
+
+A contour that breaks the rule as written (the control alarms on the program as it is) is
+found by :func:`written_turn`: ``check`` warns of it (:mod:`.contours`, fed the contour
+blocks only), ``compensate`` refuses it.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from ..diagnostics import Location
 from ..geometry import segment_of
 from ..interpret import gcodes as G
+from ..interpret.motion import ARC, CONTOUR, LINE, RAPID, Move, Step
 from .segmenter import Cut
 
 #: the cycles whose contour must run one way
-ONE_WAY_CYCLES = (G.ROUGH_TURN, G.ROUGH_FACE)
+ONE_WAY_CYCLES = G.ONE_WAY_CYCLES
 AXES = "XZ"
 NOISE = 1e-7  #: mm; a change smaller than this is arithmetic, not motion
 ALARMS = {0: "PS0329", 1: "PS0064"}  #: X is the second axis of the G18 plane, Z the first
@@ -154,3 +162,62 @@ def clamp_vertices(cuts: list[Cut], axes: dict[int, int]) -> list[Cut]:
     vertices.append(list(last))
     result = [Cut(a[0], a[1], b[0], b[1]) for a, b in zip(vertices, vertices[1:])]
     return [cut for cut in result if cut.start != cut.end]
+
+
+@dataclass(frozen=True, slots=True)
+class Turn:
+    """Where a G71/G72 contour as written turns back in an axis its cycle needs run one way."""
+
+    step: Step  #: the contour block that turns back
+    axis: int
+    reached: float  #: the value the axis had reached (mm)
+    value: float  #: the value it turns back to
+    cycle: str  #: "G71 type I"...
+    axes: tuple[int, ...]  #: the axes the cycle needs run one way
+
+    def said(self) -> str:
+        """The rule, the cycle, how far the contour turns back and the alarm the control raises."""
+        by = abs(self.value - self.reached)
+        return (f"the {self.cycle} cycle on line {self.step.cycle_line} needs its contour to run one way in "
+                f"{' and '.join(map(name, self.axes))}; as written it turns back in {name(self.axis)} here, by "
+                f"{microns(by) if by < 0.1 else f'{by:.3f} mm'}: the control stops the cycle on it with alarm "
+                f"{ALARMS[self.axis]}")
+
+
+def _cut(move: Move) -> Cut:
+    return Cut(move.x0, move.z0, move.x1, move.z1, move.xc, move.zc, move.cw if move.kind == ARC else None)
+
+
+def written_turn(steps: list[Step], noise: float = NOISE) -> Turn | None:
+    """Where a G71/G72 contour as written (its steps from the approach, P, to Q) first turns back,
+    by more than ``noise`` (mm), in an axis its cycle's type needs run one way, from where the
+    approach ends and the way it first moves in that axis; None when it runs one way, or when a
+    move of it is not known (a macro value only the control knows: the control's to judge)."""
+    approach = steps[0]
+    axes, _, cycle = rule(approach.cycle, {letter for letter, _ in approach.block.codes})
+    cuts: list[Cut] = []
+    owners: list[Step] = []
+    for step in steps[1:]:
+        for move in step.moves:
+            if move.role == CONTOUR and move.kind in (LINE, ARC, RAPID):
+                if not move.known:
+                    return None
+                cuts.append(_cut(move))
+                owners.append(step)
+    if not cuts:
+        return None
+    for axis in axes:
+        values = [value for cut in cuts for value in along(cut, axis)]
+        way = next((1 if value > values[0] else -1 for value in values if abs(value - values[0]) > noise), 0)
+        turn = first_turn(values[0], cuts, axis, way, noise) if way else None
+        if turn is not None:
+            index, reached, value = turn
+            return Turn(owners[index], axis, reached, value, cycle, axes)
+    return None
+
+
+def at_geometry(file: str, step: Step) -> Location:
+    """A block's first geometry word (X, Z, U or W), for a message about where it runs."""
+    block = step.block
+    word = next((w for w in block.words if w.letter in "XZUW"), None)
+    return Location(file, block.line, None if word is None else word.col + 1, block.text)

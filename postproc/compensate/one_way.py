@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..diagnostics import Location, SafetyError
+from ..diagnostics import SafetyError
 from ..interpret.motion import ARC, CONTOUR, LINE, RAPID, Move, Step
 from . import monotone
 from .edits import Entry, _cut_of, _rounded_up
@@ -49,12 +49,16 @@ class OneWayRule:
         its block when the hold takes more than half the tolerance."""
         approach = entries[0]
         step = approach.step
+        noise = self._noise(step)
+        turn = monotone.written_turn([entry.step for entry in entries if entry.step.in_contour], noise)
+        if turn is not None:
+            raise SafetyError(f"{turn.said()}: the program cannot run as it is, refused; make the contour (its P..Q "
+                              f"blocks) run one way in {monotone.name(turn.axis)}", monotone.at_geometry(self.file, turn.step))
         axes, carries, cycle = monotone.rule(step.cycle, {letter for letter, _ in step.block.codes})
         shape = [(entry, index, move) for entry in entries[1:] if entry.step.in_contour
                  for index, move in enumerate(entry.step.moves) if move.role == CONTOUR]
         drawn = [move for _, _, move in shape if move.kind in (LINE, ARC, RAPID)]
         nominal = [_cut_of(move) for move in drawn if move.known]
-        noise = self._noise(step)
         ways = {axis: monotone.direction(nominal, axis, noise) for axis in axes}
         movable = carries if self._simple(approach) else ""
         one_way = _OneWay(cycle, step.cycle_line or step.block.line, approach, movable, ways, noise)
@@ -77,7 +81,7 @@ class OneWayRule:
             off = monotone.off_path(held[moved], target.points)
             changed = [axis for axis in axes if np.any(held[:, axis] != target.points[:, axis])]
             names = "/".join(map(monotone.name, changed))
-            where = _at_geometry(self.file, entry.step)
+            where = monotone.at_geometry(self.file, entry.step)
             rule = f"the {cycle} cycle on line {one_way.cycle_line} needs its contour to run one way in " \
                    f"{' and '.join(map(monotone.name, axes))} (FANUC alarm {monotone.alarm(axes)})"
             if off > tolerance:
@@ -195,7 +199,7 @@ class OneWayRule:
         start = one_way.start or written[0].start
         for axis, way in one_way.ways.items():
             if way is None:
-                continue  # the nominal contour turns back already: the control alarms on the program as it was
+                continue  # a contour not known throughout that turns back as written: the control's to judge
             if way == 0:  # the nominal does not move in the axis: either way will do, but one
                 values = [start[axis]] + [value for cut in written for value in monotone.along(cut, axis)]
                 way = next((1 if b > a else -1 for a, b in zip(values, values[1:]) if abs(b - a) > one_way.noise), 0)
@@ -208,14 +212,7 @@ class OneWayRule:
                     f"the compensated contour of the {one_way.cycle} cycle on line {one_way.cycle_line} would turn back "
                     f"in {monotone.name(axis)} here, by {monotone.microns(abs(value - reached))}; the cycle needs it to "
                     f"run one way in {' and '.join(map(monotone.name, one_way.ways))} (FANUC alarm "
-                    f"{monotone.alarm(tuple(one_way.ways))}): refused", _at_geometry(self.file, one_way.steps[index]))
-
-
-def _at_geometry(file: str, step: Step) -> Location:
-    """A block's first geometry word (X, Z, U or W), for an error about where it runs."""
-    block = step.block
-    word = next((w for w in block.words if w.letter in "XZUW"), None)
-    return Location(file, block.line, None if word is None else word.col + 1, block.text)
+                    f"{monotone.alarm(tuple(one_way.ways))}): refused", monotone.at_geometry(self.file, one_way.steps[index]))
 
 
 def _turns_back(cuts: list[Cut], ways: dict[int, int], noise: float) -> bool:

@@ -16,7 +16,6 @@ read in whatever units the control was left in. The header says what was added w
 
 from __future__ import annotations
 
-import hashlib
 import os
 import re
 import signal
@@ -38,7 +37,7 @@ from ..diagnostics import (InternalError, Location, ModelError, PluginError, Pos
 from ..measure.readers.csvfile import snapshot as measurement_snapshot
 from ..interpret.motion import ARC, LINE, Step
 from ..files.output import Spool
-from ..machine.profile import DEFAULT, MachineProfile, to_toml
+from ..machine.profile import DEFAULT, MachineProfile, sha256 as profile_sha256
 from ..interpret.program import interpret_source
 from .region import Region
 from .request import Request
@@ -78,7 +77,7 @@ class Pipeline:
         if request.plugins or request.ballbar or request.probe or request.calibration or request.options:
             raise UsageError("--model carries its compensator, measurements and options: give none of them with it")
         data = models.read(path)
-        models.check_age(data, path, self.profile.name, self.profile.model_max_age_days, self.reporter)
+        models.check_age(data, path, self.profile, self.reporter)
         installed = registry.select([data["plugin"]])
         item = installed[0]
         if data.get("plugin_version") != item.version:
@@ -98,7 +97,7 @@ class Pipeline:
             raise UsageError("a model is fitted for one compensator: give one --plugin")
         compensator, item = self.compensators[0], self.installed[0]
         model = self._guarded(compensator, "model", compensator.model)
-        return models.build(compensator.name, item.version, model, self.inputs, self.profile.name,
+        return models.build(compensator.name, item.version, model, self.inputs, self.profile,
                             self.settings[compensator.name], note, models.measured_at(self.measured, self.reporter))
 
     # ------------------------------------------------------------------ measurements
@@ -213,12 +212,14 @@ class Pipeline:
             self.reporter.warn("no feed move was changed (the program has none the compensators reach): it is "
                                "written as it was, under a provenance header", Location(name))
             return
-        tolerance = self.request.tolerance or self.profile.default_tolerance(False)
+        inch = max(rewriter.inch_grids or (False,), key=self.profile.default_tolerance)  # the units of the coarser
+        tolerance = self.request.tolerance or self.profile.default_tolerance(inch)
         if 0.0 < rewriter.largest <= tolerance:
+            grid = None if self.request.tolerance else self.profile.finer_output(inch, rewriter.largest)
             self.reporter.warn(f"the largest correction, {rewriter.largest * 1000:.2f} um, is within the tolerance in "
                                f"force, {tolerance * 1000:.2f} um: the written path may be no nearer the compensated "
-                               "path than the nominal one is (a finer --tolerance, or more output decimals in the "
-                               "machine profile, lets it follow)", Location(name))
+                               "path than the nominal one is " + (f"({grid})" if grid else "(a finer --tolerance, or "
+                               "more output decimals in the machine profile, lets it follow)"), Location(name))
 
     def _prologue(self, source: Source) -> tuple[list[tuple[str, str]], Step | None]:
         """The compensators' own opening blocks, (compensator, text) each read back, and the
@@ -317,9 +318,9 @@ def _profile_lines(profile: MachineProfile) -> list[str]:
     with the embedded default: its file and the SHA-256 of its bytes; a profile made in a library
     call, the SHA-256 of its settings as TOML; the embedded default, nothing."""
     if profile.source:
-        return [f"PROFILE {profile.source.rsplit('/', 1)[-1][:28]} SHA256 {profile.source_sha256[:12]}"]
+        return [f"PROFILE {profile.source.rsplit('/', 1)[-1][:28]} SHA256 {profile_sha256(profile)[:12]}"]
     if profile != DEFAULT:
-        return [f"PROFILE SETTINGS SHA256 {hashlib.sha256(to_toml(profile).encode('utf-8')).hexdigest()[:12]}"]
+        return [f"PROFILE SETTINGS SHA256 {profile_sha256(profile)[:12]}"]
     return []
 
 

@@ -206,6 +206,11 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
 
     # ------------------------------------------------------------------ units and limits
 
+    @property
+    def inch_grids(self) -> tuple[bool, ...]:
+        """The units (True: inch) whose output grid the corrected blocks needed."""
+        return tuple(self._grids)
+
     def _grid(self, step: Step) -> Grid:
         inch = step.modal.inch
         grid = self._grids.get(inch)

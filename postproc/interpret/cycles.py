@@ -13,10 +13,6 @@ from ..syntax.blocks import Block
 from .state import _Capture, _Contour, _Words
 
 
-#: The cycles that need their contour to run one way (FANUC alarm PS0064).
-_ONE_WAY = (G.ROUGH_TURN, G.ROUGH_FACE)
-
-
 class ContourCycles:
     """Contour cycles, mixed into :class:`~postproc.interpret.interpreter.Interpreter`."""
 
@@ -59,7 +55,7 @@ class ContourCycles:
             return Step(block, moves, self.modal, interpreted=False)
         if recorded is None:
             recorded = self._reread_contour(p, q, p_line, q_line, block)
-        elif meaning in _ONE_WAY and recorded.meaning != meaning:
+        elif meaning in G.ONE_WAY_CYCLES and recorded.meaning != meaning:
             self._roughed_twice(block, name, recorded)
         if meaning == G.FINISH:
             moves = self._replay(recorded, block)

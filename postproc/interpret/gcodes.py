@@ -51,6 +51,7 @@ GROOVE = "grooving"  #: G75
 THREAD_MULTI = "multiple-threading"  #: G76
 
 CONTOUR_CYCLES = (FINISH, ROUGH_TURN, ROUGH_FACE, PATTERN)
+ONE_WAY_CYCLES = (ROUGH_TURN, ROUGH_FACE)  #: the cycles whose contour must run one way (FANUC alarm PS0064)
 
 # Modal settings (values of MODAL entries).
 INCH, METRIC = "inch", "metric"

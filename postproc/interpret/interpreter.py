@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import replace
-from typing import Iterable, Iterator
+from typing import Callable, Iterable, Iterator
 
 from . import gcodes as G
 from .corners import corner_moves
@@ -103,11 +103,13 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
             steady = self._steady()
         self._finish()
 
-    def tally(self, blocks: Iterable[Block | CanonicalLine]) -> tuple[int, int]:
+    def tally(self, blocks: Iterable[Block | CanonicalLine],
+              contours: Callable[[Step], None] | None = None) -> tuple[int, int]:
         """Interpret every block and count blocks and moves, keeping no step: all that
         ``check`` and an identity run need. Takes the reader's light stream
         (``read_blocks(..., light=True)``): a canonical line becomes a block only when
-        the general path needs one."""
+        the general path needs one. ``contours`` is given each step of a cycle's P..Q contour
+        (always read by the general path), and no other."""
         canonical_motion = self.canonical_motion
         steady = self._steady()
         count = moves = 0
@@ -123,6 +125,8 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
             for step in self._general(block):
                 count += 1
                 moves += len(step.moves)
+                if step.in_contour and contours is not None:
+                    contours(step)
             steady = self._steady()
         self._finish()
         return count, moves

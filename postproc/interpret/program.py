@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Iterator
+from typing import Callable, Iterator
 
 from ..syntax.blocks import BLOCK
 from ..diagnostics import InterpretationError, Location, Reporter
@@ -33,13 +33,14 @@ def interpret_source(source: Source, profile: MachineProfile = DEFAULT, reporter
         _note_empty(source, profile, reporter)
 
 
-def tally_source(source: Source, profile: MachineProfile = DEFAULT, reporter: Reporter | None = None) -> tuple[int, int]:
+def tally_source(source: Source, profile: MachineProfile = DEFAULT, reporter: Reporter | None = None,
+                 contours: Callable[[Step], None] | None = None) -> tuple[int, int]:
     """Interpret a whole program for its diagnostics: (blocks, moves). Raises like
-    :func:`interpret_source`, keeps no step."""
+    :func:`interpret_source`, keeps no step; ``contours`` sees the steps of cycle contours."""
     reporter = reporter if reporter is not None else Reporter()
     interpreter, blocks = _prepare(source, profile, reporter, light=True)
     try:
-        count, moves = interpreter.tally(blocks)
+        count, moves = interpreter.tally(blocks, contours)
     except InterpretationError:
         _syntax_first(blocks)
         raise

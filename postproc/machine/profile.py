@@ -88,6 +88,31 @@ class MachineProfile:
         step = self.resolution_mm(inch)
         return min(max(0.001, 2.0 * step) if (inch or step > 0.001) else 0.001, MAX_TOLERANCE)
 
+    def finer_output(self, inch: bool, largest: float) -> str | None:
+        """What to do when the default tolerance is the output grid's (twice its step, above
+        1 um) and the largest correction (mm) lies within it: the fewest output decimals (by
+        their profile key) whose default tolerance is below the correction, else the finest the
+        control's least input increment allows with a finer ``--tolerance``. None when the
+        default tolerance is not the grid's (a profile's ``tolerance``, or 1 um)."""
+        if self.tolerance is not None or self.default_tolerance(inch) <= 0.001:
+            return None
+        unit = "inch" if inch else "mm"
+        key = f"output_decimals_{unit}"
+        now = getattr(self, key)
+        said = f"the default tolerance is twice the output step of {10.0 ** -now:g} {unit}, {key} = {now} in the machine profile"
+        rounding = self.resolution_mm(inch) / 2.0
+        if rounding >= largest:
+            said += f", and the blocks' rounding alone, up to {rounding * 1000:.2f} um, is as large as the correction"
+        finest = round(-math.log10(self.increment(inch)))
+        for decimals in range(now + 1, finest + 1):
+            if dataclasses.replace(self, **{key: decimals}).default_tolerance(inch) < largest:
+                return f"{said}: set {key} = {decimals}, or give a finer --tolerance"
+        increment = f"the control's least input increment ({self.input_increment}, {self.increment(inch):g} {unit})"
+        if now < finest:
+            return (f"{said}: set {key} = {finest}, the finest {increment} allows, and give a --tolerance below the "
+                    "correction, or leave the program uncompensated")
+        return f"{said}, the finest {increment} allows: give a finer --tolerance, or leave the program uncompensated"
+
 
 DEFAULT = MachineProfile()
 
@@ -214,6 +239,16 @@ def _within(name: str, value: float, where: Location) -> None:
 
 def _is_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def sha256(profile: MachineProfile) -> str:
+    """What identifies a profile beyond its name (which a profile file that sets none shares with
+    the embedded default): the SHA-256 of the file it was read from, as the provenance header's
+    ``PROFILE`` line gives it; for a profile made otherwise (a library call, the embedded
+    default), the SHA-256 of its settings as :func:`to_toml` writes them."""
+    if profile.source:
+        return profile.source_sha256
+    return hashlib.sha256(to_toml(profile).encode("utf-8")).hexdigest()
 
 
 def to_toml(profile: MachineProfile) -> str:

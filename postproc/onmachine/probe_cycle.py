@@ -28,7 +28,11 @@ move, POPEN before the first DPRNT and PCLOS after the last, local variables of 
 program (#1-#9) for the numbers the printout carries, and a header line that makes the
 printout self-describing. The probe's tool offset must put the programmed point at the
 stylus centre; ``tool`` selects it (T word), ``probe_on``/``probe_off`` are the machine's
-M codes that switch the probe on and off.
+M codes that switch the probe on and off. They come as a pair: a program that switches the probe
+on and not off leaves it on after the cycle (its battery drained, a false trigger the next
+skip move takes for a touch), and one that switches it off and not on may run its skip moves
+with the probe off, the stylus driven into the part. ``none`` says, for one of the two, that
+the machine does it by itself (a probe that switches off on a timer, or on with the tool change).
 """
 
 from __future__ import annotations
@@ -41,7 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..diagnostics import InternalError, Location, OptionError, Reporter, SafetyError
+from ..diagnostics import InternalError, Location, OptionError, Reporter, SafetyError, UsageError
 from ..compensate.emitter import Style
 from ..measure.features import MIN_TOUCHES, Feature, Spread
 from ..geometry import segment_of
@@ -58,6 +62,7 @@ from ..syntax.source import Source
 DATUM_SURFACES = ("face", "diameter", "both")
 FAN_STEP = math.radians(10.0)  #: the standoff path turns round a convex corner in steps this small
 _OUTWARD = {"face": (0.0, 1.0), "diameter": (1.0, 0.0)}
+BY_ITSELF = "none"  #: ``--probe-on none`` / ``--probe-off none``: the machine switches the probe, no M code
 
 
 @dataclass(frozen=True, slots=True)
@@ -75,8 +80,8 @@ class Cycle:
     datum: tuple[float, float] | None = None  #: (x, z) the datum touch aims at, radius mm
     datum_on: str = "face"  #: face (touched from +Z), diameter (from +X) or both
     tool: str | None = None  #: T word digits, e.g. "0909"
-    probe_on: str | None = None  #: M code digits
-    probe_off: str | None = None
+    probe_on: str | None = None  #: M code digits, or BY_ITSELF
+    probe_off: str | None = None  #: M code digits, or BY_ITSELF
     per_feature: int = MIN_TOUCHES  #: the fewest touches on each feature with room for them
 
     @property
@@ -101,20 +106,49 @@ class Cycle:
             raise OptionError(f"--program-number {self.program_number}: a FANUC program number is 1 to 9999")
         if self.datum_on not in DATUM_SURFACES:
             raise OptionError(f"datum surface {self.datum_on!r}: expected one of {', '.join(DATUM_SURFACES)}")
-        for name, value, letter in (("--tool", self.tool, "T"), ("--probe-on", self.probe_on, "M"),
-                                    ("--probe-off", self.probe_off, "M")):
+        for name, value, letter in (("--tool", self.tool, "T"), ("--probe-on", _code(self.probe_on), "M"),
+                                    ("--probe-off", _code(self.probe_off), "M")):
             if value is not None and not re.fullmatch(r"\d{1,8}", value):
                 raise OptionError(f"{name} {value}: expected the digits of a {letter} code, e.g. "
-                                  f"{'0909' if letter == 'T' else '55'}")
+                                  f"{'0909' if letter == 'T' else '55'}{'' if letter == 'T' else ', or none'}")
         if self.tool is not None:
             _check_tool(self.tool)
-        for name, value in (("--probe-on", self.probe_on), ("--probe-off", self.probe_off)):
+        on, off = _code(self.probe_on), _code(self.probe_off)
+        for name, value in (("--probe-on", on), ("--probe-off", off)):
             if value is not None and int(value) in RESERVED_M:
                 raise OptionError(f"{name} M{value}: M{int(value):02d} {RESERVED_M[int(value)]} on a FANUC control, it "
                                   "cannot switch the probe; give the machine builder's M code for it (e.g. M55)")
-        if self.probe_on is not None and self.probe_off is not None and int(self.probe_on) == int(self.probe_off):
+        if on is not None and off is not None and int(on) == int(off):
             raise OptionError(f"--probe-on M{self.probe_on} and --probe-off M{self.probe_off}: one M code cannot "
                               "switch the probe both on and off")
+        _check_pair(self.probe_on, self.probe_off)
+
+
+def _by_itself(value: str | None) -> bool:
+    return value is not None and value.lower() == BY_ITSELF
+
+
+def _code(value: str | None) -> str | None:
+    """The M code digits of a switch, None for no code (not given, or the machine's own)."""
+    return None if value is None or _by_itself(value) else value
+
+
+def _check_pair(on: str | None, off: str | None) -> None:
+    """The probe's switches come in pairs: one given without the other leaves the probe on after
+    the cycle, or runs the skip moves with it off. ``none`` for the other says the machine
+    switches it by itself.
+
+    :raises UsageError: one switch given, the other not.
+    """
+    if on is not None and off is None:
+        raise UsageError(f"--probe-on {'none' if _by_itself(on) else 'M' + on} without --probe-off: the probing "
+                         "program would leave the probe switched on after the cycle; give --probe-off MNN, the M code "
+                         "that switches it off, or --probe-off none if the probe switches itself off (a timer)")
+    if off is not None and on is None:
+        raise UsageError(f"--probe-off {'none' if _by_itself(off) else 'M' + off} without --probe-on: the probing "
+                         "program would run its skip moves with the probe off unless something else switched it on; "
+                         "give --probe-on MNN, the M code that switches it on, or --probe-on none if the machine "
+                         "switches it on by itself (with the tool change)")
 
 
 #: M codes whose meaning a FANUC control fixes (or every lathe builder gives them): never the probe's switch
@@ -422,7 +456,9 @@ def program_text(planned: ProbingProgram, profile: MachineProfile = DEFAULT) -> 
              f"G18 G21 G40{absolute} {per_minute}", "M05")
     if cycle.tool is not None:
         text.add(f"T{cycle.tool}")
-    if cycle.probe_on is not None:
+    if _by_itself(cycle.probe_on):
+        text.add(_comment("THE MACHINE SWITCHES THE PROBE ON"))
+    elif cycle.probe_on is not None:
         text.add(f"M{cycle.probe_on} " + _comment("PROBE ON"))
     header = ((VAR_RADIUS, text.number(text.grid.z_word(cycle.stylus_radius), 4)), (VAR_VERSION, str(VERSION)),
               (VAR_PROGRAM, str(cycle.program_number)), (VAR_UNITS, "21"),
@@ -451,7 +487,9 @@ def program_text(planned: ProbingProgram, profile: MachineProfile = DEFAULT) -> 
     text.add(END_STATEMENT, "PCLOS")
     for leg in planned.leave:
         text.move(leg, cycle.travel_feed)
-    if cycle.probe_off is not None:
+    if _by_itself(cycle.probe_off):
+        text.add(_comment("THE PROBE SWITCHES ITSELF OFF"))
+    elif cycle.probe_off is not None:
         text.add(f"M{cycle.probe_off} " + _comment("PROBE OFF"))
     text.add("M30", "%")
     return "\n".join(text.lines) + "\n"

@@ -384,7 +384,8 @@ MODELS = [
     ("options-a-list", lambda d: d.update(options=["extrapolate"]), "'options' must be an object, not a list"),
     ("plugin-a-number", lambda d: d.update(plugin=5), "'plugin' must be a string, not a whole number"),
     ("unknown-key", lambda d: d.update(colour="red"), "unknown key 'colour' in the model (known: created, format, "
-                                                       "inputs, machine_profile, measured, model, note, options, "
+                                                       "inputs, machine_profile, machine_profile_sha256, measured, model, "
+                                                       "note, options, "
                                                        "plugin, plugin_version, postproc, sha256, version)"),
     ("unknown-option", lambda d: d.update(options={"colour": "red"}),
      "options.colour: parametric declares no such option (it declares: extrapolate, max-uncertainty)"),

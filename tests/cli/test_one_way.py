@@ -10,6 +10,7 @@ import pytest
 from support import SAMPLES
 from support.cycles import turn_backs
 from postproc.compensate.models import build, dumps
+from postproc.machine.profile import DEFAULT
 
 SHAFT = ("G18 G21 G99\nG00 X60. Z5.\nG71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\nN10 G00 X20.\nG01 Z0. F0.1\n"
          "X30.\nZ-60.\nN20 X60.\nG70 P10 Q20\nM30\n")
@@ -38,7 +39,7 @@ def with_squareness(model_path, squareness: float, folder):
     path = folder / f"square{squareness:g}.json"
     path.write_text(dumps(build(data["plugin"], data["plugin_version"], model,
                                 [(entry["file"], entry["sha256"]) for entry in data["inputs"]],
-                                data["machine_profile"], data["options"], data["note"], data["measured"])))
+                                DEFAULT, data["options"], data["note"], data["measured"])))
     return path
 
 
@@ -106,3 +107,47 @@ def test_a_contour_run_by_two_kinds_of_cycle_is_held_to_both_or_refused(run, sam
     else:
         assert result.exit_code == 0, result.stderr
         assert turn_backs(result.stdout) == []
+
+
+TURNING_BACK = """%
+O1004 (G71 TURNING BACK)
+G18 G21 G40 G99
+T0101
+G00 X130. Z65.
+G71 U2. R0.5
+G71 P10 Q20 U0.5 W0.1 F0.25
+N10 G00 X20.
+G01 Z50. F0.08
+X60. Z30.
+X50. Z20.
+N20 G01 X130. Z0.
+G70 P10 Q20
+G00 X200. Z150.
+M30
+%
+"""
+TURNS = ("the G71 type I cycle on line 7 needs its contour to run one way in X and Z; as written it turns back in X "
+         "here, by 5.000 mm: the control stops the cycle on it with alarm PS0329")
+
+
+def test_a_contour_that_turns_back_as_written_is_warned_of_by_check(run, tmp_path):
+    program = tmp_path / "o1004.nc"
+    program.write_text(TURNING_BACK)
+    result = run("check", str(program))
+    assert result.exit_code == 0
+    assert result.stdout == ""
+    assert result.stderr == (f"{program}:11:1: warning: {TURNS}; compensate refuses the program\n"
+                             "    X50. Z20.\n    ^\n"
+                             f"{program}: ok: 16 lines, 14 moves, 1 warnings\n")
+
+
+def test_a_contour_that_turns_back_as_written_is_refused_by_compensate(run, sample_model, tmp_path):
+    program = tmp_path / "o1004.nc"
+    program.write_text(TURNING_BACK)
+    target = tmp_path / "out.nc"
+    result = run("compensate", str(program), "--model", str(sample_model), "-o", str(target))
+    assert result.exit_code == 4
+    assert result.stdout == ""
+    assert result.stderr == (f"{program}:11:1: error: {TURNS}: the program cannot run as it is, refused; make the "
+                             "contour (its P..Q blocks) run one way in X\n    X50. Z20.\n    ^\n")
+    assert not target.exists()

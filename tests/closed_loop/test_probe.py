@@ -20,7 +20,7 @@ from click.testing import CliRunner
 from postproc.api import Pipeline
 from postproc.cli.main import main
 from postproc.diagnostics import EXIT_BAD_INPUT, EXIT_REFUSED
-from support import REPO
+from support import INCH_HEMISHELL, REPO
 from support.parts import SHAFT
 
 HEMISHELL = str(REPO / "samples" / "programs" / "hemishell.nc")
@@ -28,19 +28,6 @@ SAMPLE_MACHINE = REPO / "samples" / "machines" / "v40r-sim.toml"
 ARC_LINE = "10"  #: the hemishell's G03
 R = 57.15
 STOCK = 0.025  #: the first pass is cut this far outside (0.0254 mm in the source; 0.001 mm diameter grid here)
-
-INCH_HEMISHELL = """%
-O1003 (HEMISHELL IN INCHES)
-G18 G20 G40 G99
-T0101
-G00 X0. Z2.441
-G01 Z2.25 F0.003
-G03 X4.5 Z0. I0. K-2.25
-G01 X4.65
-G00 Z2.441
-M30
-%
-"""
 
 
 def postproc(*args, input: str | None = None):

@@ -115,3 +115,77 @@ def test_a_parametric_model_beyond_what_traces_may_read_is_refused(run, tmp_path
         result = run("compensate", HEMISHELL, "--model", str(model))
         assert (result.exit_code, result.stdout) == (3, ""), result.stderr
         assert f"parametric: the saved model's {said}" in result.stderr
+
+
+def _profile(tmp_path, name: str, text: str) -> str:
+    """A machine profile file that sets no name (it has the embedded default's) and ``text``."""
+    path = tmp_path / name
+    path.write_text(text)
+    return str(path)
+
+
+def test_a_model_records_the_machine_profile_by_its_sha256(run, tmp_path):
+    """The model names the profile and records the SHA-256 the provenance header gives it: the
+    file's bytes with --machine, the default's settings without."""
+    import hashlib
+
+    from postproc.machine.profile import DEFAULT, sha256, to_toml
+
+    lathe = _profile(tmp_path, "lathe.toml", "max_correction = 0.05\n")
+    model = tmp_path / "model.json"
+    assert run(*FIT, "--machine", lathe, "-o", str(model)).exit_code == 0
+    data = json.loads(model.read_text())
+    assert data["machine_profile"] == DEFAULT.name
+    assert data["machine_profile_sha256"] == hashlib.sha256(b"max_correction = 0.05\n").hexdigest()
+    applied = run("compensate", HEMISHELL, "--model", str(model), "--machine", lathe)
+    assert applied.exit_code == 0, applied.stderr
+    assert f"(PROFILE LATHE.TOML SHA256 {data['machine_profile_sha256'][:12].upper()})" in applied.stdout
+    assert "machine profile" not in applied.stderr
+    default = tmp_path / "default.json"
+    assert run(*FIT, "-o", str(default)).exit_code == 0
+    assert json.loads(default.read_text())["machine_profile_sha256"] == sha256(DEFAULT) == hashlib.sha256(
+        to_toml(DEFAULT).encode()).hexdigest()
+
+
+def test_a_model_applied_under_another_profile_of_the_same_name_warns(run, tmp_path):
+    """Fitted under one profile file, applied under another with the same name (here both the
+    default's, as neither sets one) or under the embedded default: the program is written, with
+    one warning naming both SHA-256 and the remedy."""
+    fitted_under = _profile(tmp_path, "a.toml", "max_correction = 0.05\n")
+    other = _profile(tmp_path, "b.toml", "max_correction = 0.08\n")
+    model = tmp_path / "model.json"
+    run(*FIT, "--machine", fitted_under, "-o", str(model))
+    sha = json.loads(model.read_text())["machine_profile_sha256"]
+    for machine, this in (["--machine", other], other), ([], "its settings' SHA-256"):
+        result = run("compensate", HEMISHELL, "--model", str(model), *machine)
+        assert result.exit_code == 0
+        assert result.stdout.startswith("%\nO1000") and "(POSTPROC" in result.stdout
+        warnings = [line for line in result.stderr.splitlines() if "machine profile" in line]
+        assert len(warnings) == 1
+        assert warnings[0].startswith(f"{model}: warning: the model was made under a machine profile 'fanuc-18i-t' of "
+                                      f"other content (SHA-256 {sha[:12]}) than this run's ({this}")
+        assert warnings[0].endswith("make sure it is the same machine, or fit the model again with this --machine")
+
+
+def test_a_model_saved_without_the_profile_sha256_is_compared_by_name(run, tmp_path):
+    """A model saved before the SHA-256 was recorded still loads; only its profile's name is
+    compared. A recorded SHA-256 that is not one is refused."""
+    import hashlib
+
+    from postproc.compensate.models import _canonical
+
+    model = tmp_path / "model.json"
+    run(*FIT, "-o", str(model))
+    data = json.loads(model.read_text())
+    data.pop("sha256")
+    data.pop("machine_profile_sha256")
+    model.write_text(json.dumps({**data, "sha256": hashlib.sha256(_canonical(data)).hexdigest()}))
+    other = _profile(tmp_path, "b.toml", "max_correction = 0.08\n")
+    result = run("compensate", HEMISHELL, "--model", str(model), "--machine", other)
+    assert result.exit_code == 0 and "(POSTPROC" in result.stdout
+    assert "machine profile" not in result.stderr
+    data["machine_profile_sha256"] = "73AA"
+    model.write_text(json.dumps({**data, "sha256": hashlib.sha256(_canonical(data)).hexdigest()}))
+    result = run("compensate", HEMISHELL, "--model", str(model))
+    assert result.exit_code == 3 and result.stdout == ""
+    assert result.stderr == (f"{model}: error: 'machine_profile_sha256' must be 64 hex digits (lower case)\n")

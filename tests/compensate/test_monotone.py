@@ -15,13 +15,14 @@ from support import SAMPLES
 from support.cycles import contour_case, cycle_types, turn_backs
 from support.interpret import steps
 from postproc.compensate import monotone
+from postproc.compensate.contours import WrittenContours
 from postproc.compensate.request import Request
 from postproc.compensate.rewrite import Rewriter
 from postproc.compensate.segmenter import Cut
-from postproc.diagnostics import PostprocError, Reporter
+from postproc.diagnostics import PostprocError, Reporter, SafetyError
 from postproc.interpret import gcodes as G
 from postproc.interpret.motion import CONTOUR, REPLAY
-from postproc.interpret.program import interpret_source
+from postproc.interpret.program import interpret_source, tally_source
 from postproc.machine.profile import DEFAULT
 from postproc.syntax.source import Source
 
@@ -101,8 +102,14 @@ def test_a_compensated_cycle_contour_runs_one_way_or_is_refused(seed):
     to 9 um: the program written runs one way as the control checks it, or the run is refused
     with one message naming the block; never a program that turns back."""
     case = contour_case(seed)
-    if turn_backs(case["text"], diameter_x=case["diameter_x"]):
-        return  # rounded to the output's decimals, an arc tangent to an axis may pass it: the control alarms as it is
+    turns = turn_backs(case["text"], diameter_x=case["diameter_x"])
+    if turns:  # rounded to the output's decimals, an arc tangent to an axis may pass it: the control alarms as it is
+        with pytest.raises(SafetyError) as refused:
+            rewrite(case["text"], case["correct"], case["diameter_x"], tolerance=0.001)
+        line, axis = turns[0].removeprefix("line ").split(": ")
+        assert refused.value.location.line == int(line)
+        assert f"as written it turns back in {axis} here" in refused.value.message
+        return
     try:
         out, _, _ = rewrite(case["text"], case["correct"], case["diameter_x"], tolerance=0.001)
     except PostprocError as exc:
@@ -112,3 +119,79 @@ def test_a_compensated_cycle_contour_runs_one_way_or_is_refused(seed):
     assert turn_backs(out, diameter_x=case["diameter_x"]) == [], (case["cycle"], out)
     assert cycle_types(out, diameter_x=case["diameter_x"]) == [case["cycle"]]
     assert replayed(out, diameter_x=case["diameter_x"])  # the approach still moves the axes it moved: the type stays
+
+
+# -- a contour that breaks the rule as written: check warns, compensate refuses ---------------------------
+
+@st.composite
+def any_contour(draw) -> tuple[str, bool]:
+    """A G71 or G72 cycle of type I or II whose contour's lines and arcs run any way in X and Z:
+    many break the one-way rule as written. Its program and whether X is a diameter."""
+    cycle, kind, diameter = draw(st.sampled_from([71, 72])), draw(st.sampled_from(["I", "II"])), draw(st.booleans())
+    scale = 2.0 if diameter else 1.0
+    x, z = (100.0 if (cycle, kind) == (72, "I") else 30.0), (50.0 if (cycle, kind) == (71, "I") else 0.0)
+    blocks = []
+    for _ in range(draw(st.integers(1, 5))):
+        dx = draw(st.sampled_from([-1, 0, 1])) * draw(st.integers(1, 8000)) / 1000.0
+        dz = draw(st.sampled_from([-1, 0, 1])) * draw(st.integers(1, 8000)) / 1000.0
+        if dx == dz == 0.0:
+            continue
+        x, z = x + dx, z + dz
+        radius = ""
+        code = "G01"
+        if draw(st.booleans()):  # an arc over the chord, from a half circle to a flat one
+            code = draw(st.sampled_from(["G02", "G03"]))
+            radius = f" R{(dx * dx + dz * dz) ** 0.5 / 2.0 * draw(st.floats(1.01, 3.0)):.3f}"
+        blocks.append(f"{code} X{x * scale:.3f} Z{z:.3f}{radius}")
+    blocks = blocks or ["G01 Z-5."]
+    letter = "X" if cycle == 71 else "Z"
+    approach = f"N10 G00 {letter}{30.0 * scale if cycle == 71 else 0.0:.3f}" + (
+        "" if kind == "I" else f" {'Z0.' if cycle == 71 else f'X{30.0 * scale:.3f}'}")
+    blocks[0] += " F0.1"
+    blocks[-1] = "N20 " + blocks[-1]
+    lines = ["G18 G21 G99", f"G00 X{100.0 * scale:.3f} Z50.", f"G{cycle} {'U' if cycle == 71 else 'W'}1. R0.5",
+             f"G{cycle} P10 Q20 U0.2 W0.1 F0.2", approach, *blocks, "G70 P10 Q20", "G00 X200. Z200.", "M30"]
+    return "\n".join(lines) + "\n", diameter
+
+
+def _checked(text: str, diameter: bool) -> tuple[list, int]:
+    """The warnings ``check`` gives a program (its contour steps watched as check watches them),
+    and how many steps the watch was given."""
+    profile = dataclasses.replace(DEFAULT, diameter_x=diameter)
+    reporter = Reporter()
+    watch = WrittenContours("t.nc", profile, reporter)
+    given: list = []
+    with Source.from_text(text, "t.nc") as source:
+        tally_source(source, profile, reporter, lambda step: (given.append(step), watch(step)))
+    assert all(step.in_contour for step in given)
+    return [w for w in reporter.warnings if "as written it turns back" in w.message], len(given)
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(any_contour())
+def test_a_contour_that_turns_back_as_written_is_warned_of_by_check_and_refused_by_compensate(case):
+    """Whatever the contour, ``check`` warns exactly when the control would alarm on it as the
+    rule is read apart from the rewriter (support.cycles), naming the block, the axis and the
+    alarm; ``compensate`` refuses the same program there, even under no correction at all."""
+    text, diameter = case
+    turns = turn_backs(text, diameter_x=diameter)
+    warnings, watched = _checked(text, diameter)
+    assert watched == len([s for s in steps(text, diameter_x=diameter) if s.in_contour])
+    if not turns:
+        assert warnings == []
+        rewrite(text, lambda piece: np.zeros_like(piece.points), diameter, tolerance=0.001)
+        return
+    line, axis = turns[0].removeprefix("line ").split(": ")
+    assert [(w.location.line, f"turns back in {axis} here" in w.message) for w in warnings] == [(int(line), True)]
+    assert f"alarm {monotone.ALARMS['XZ'.index(axis)]}; compensate refuses the program" in warnings[0].message
+    with pytest.raises(SafetyError) as refused:
+        rewrite(text, lambda piece: np.zeros_like(piece.points), diameter, tolerance=0.001)
+    assert refused.value.location.line == int(line)
+    assert refused.value.message.startswith(warnings[0].message.removesuffix("; compensate refuses the program"))
+
+
+def test_the_contour_watch_is_given_the_contour_blocks_only():
+    """Outside a cycle's P..Q contour the check costs nothing: the watch sees no other step."""
+    text = HEMISHELL_G71
+    _, watched = _checked(text, True)
+    assert watched == 4  # N10 to N20

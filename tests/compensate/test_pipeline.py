@@ -12,7 +12,7 @@ import sys
 
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from support import SAMPLES
+from support import INCH_HEMISHELL, SAMPLES
 
 HEMISHELL = SAMPLES / "programs" / "hemishell.nc"
 CCW, CW = (str(SAMPLES / "ballbar" / f"v40r-100-{d}.csv") for d in ("ccw", "cw"))
@@ -160,3 +160,42 @@ def test_a_profile_made_in_a_library_call_is_identified_by_its_settings():
     assert _profile_lines(one)[0].startswith("PROFILE SETTINGS SHA256 ")
     assert _profile_lines(one) != _profile_lines(other) and _profile_lines(one) == _profile_lines(
         from_mapping({"nose_radius_mm": 0.8}))
+
+
+
+def test_an_inch_grid_whose_default_tolerance_swallows_the_correction_warns_naming_the_key(run, tmp_path):
+    """Written to 0.001 in, the default tolerance is 50 um and the rounding alone 12.7 um, more
+    than the parametric model's 4.65 um: the program is written, with one warning naming the
+    profile key and the remedy. The same program on the default 0.0001 in grid warns without
+    asking for decimals the control cannot read."""
+    program = tmp_path / "inch.nc"
+    program.write_text(INCH_HEMISHELL)
+    machine = tmp_path / "inch3.toml"
+    machine.write_text("output_decimals_inch = 3\n")
+    fit = TRACES
+    result = run("compensate", str(program), *fit, "--machine", str(machine))
+    assert result.exit_code == 0
+    assert result.stdout.startswith("%\nO1003 (HEMISHELL IN INCHES)\n(POSTPROC") and "G03 X4.5 Z0." in result.stdout
+    warnings = [line for line in result.stderr.splitlines() if ": warning: " in line]
+    assert warnings == [
+        f"{program}: warning: the largest correction, 4.65 um, is within the tolerance in force, 50.00 um: the written "
+        "path may be no nearer the compensated path than the nominal one is (the default tolerance is twice the output "
+        "step of 0.001 inch, output_decimals_inch = 3 in the machine profile, and the blocks' rounding alone, up to "
+        "12.70 um, is as large as the correction: set output_decimals_inch = 4, the finest the control's least input "
+        "increment (IS-B, 0.0001 inch) allows, and give a --tolerance below the correction, or leave the program "
+        "uncompensated)"]
+    default = run("compensate", str(program), *fit)
+    assert default.exit_code == 0 and "(POSTPROC" in default.stdout
+    assert [line for line in default.stderr.splitlines() if ": warning: " in line] == [
+        f"{program}: warning: the largest correction, 4.65 um, is within the tolerance in force, 5.08 um: the written "
+        "path may be no nearer the compensated path than the nominal one is (the default tolerance is twice the output "
+        "step of 0.0001 inch, output_decimals_inch = 4 in the machine profile, the finest the control's least input "
+        "increment (IS-B, 0.0001 inch) allows: give a finer --tolerance, or leave the program uncompensated)"]
+    finer = run("compensate", str(program), *fit, "--tolerance", "0.002")
+    assert finer.exit_code == 0 and "within the tolerance" not in finer.stderr
+
+
+def test_a_metric_run_whose_correction_exceeds_the_tolerance_says_nothing_of_it(run):
+    result = run("compensate", str(HEMISHELL), *TRACES)
+    assert result.exit_code == 0 and "(POSTPROC" in result.stdout
+    assert "within the tolerance" not in result.stderr

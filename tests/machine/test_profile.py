@@ -9,7 +9,7 @@ import tomllib
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from postproc.machine.profile import DEFAULT, from_mapping, starter, to_toml, toml_string
+from postproc.machine.profile import DEFAULT, INCREMENTS, from_mapping, starter, to_toml, toml_string
 
 #: any text a command line or a profile file can hold: every code point but the lone surrogates
 TEXT = st.text(st.characters(exclude_categories=("Cs",)), max_size=40)
@@ -87,3 +87,31 @@ def test_output_decimals_finer_than_the_input_increment_are_refused(increment, f
     unit = "mm" if decimals_mm > finest_mm else "inch"
     assert f"output_decimals_{unit} = " in refused.value.message and increment in refused.value.message
     assert f"set output_decimals_{unit} = {finest_mm if unit == 'mm' else finest_inch}" in refused.value.message
+
+
+@given(inch=st.booleans(), system=st.sampled_from(sorted(INCREMENTS)), data=st.data(),
+       largest=st.floats(1e-5, 0.1), tolerance=st.sampled_from([None, 0.002]))
+def test_finer_output_names_the_decimals_that_bring_the_default_tolerance_below_the_correction(
+        inch, system, data, largest, tolerance):
+    """When the default tolerance is the output grid's (above 1 um), the remedy names the profile
+    key: the fewest decimals the control can read whose default tolerance is below the largest
+    correction; else the finest it can read, with a finer --tolerance. Never for a tolerance set in
+    the profile, nor for the 1 um default."""
+    finest = round(-__import__("math").log10(INCREMENTS[system][1 if inch else 0]))
+    key = f"output_decimals_{'inch' if inch else 'mm'}"
+    profile = dataclasses.replace(DEFAULT, input_increment=system, tolerance=tolerance,
+                                  **{key: data.draw(st.integers(0, finest), label="decimals")})
+    remedy = profile.finer_output(inch, largest)
+    if tolerance is not None or profile.default_tolerance(inch) <= 0.001:
+        assert remedy is None
+        return
+    now = getattr(profile, key)
+    assert f"{key} = {now} in the machine profile" in remedy
+    fewer = [d for d in range(now + 1, finest + 1)
+             if dataclasses.replace(profile, **{key: d}).default_tolerance(inch) < largest]
+    if fewer:
+        assert remedy.endswith(f": set {key} = {fewer[0]}, or give a finer --tolerance")
+    elif now < finest:
+        assert f": set {key} = {finest}, the finest the control's least input increment ({system}" in remedy
+    else:
+        assert remedy.endswith("allows: give a finer --tolerance, or leave the program uncompensated")

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from postproc.diagnostics import OptionError, EXIT_BAD_INPUT, EXIT_REFUSED, EXIT_USAGE, EXIT_WOULD_CHANGE
+from postproc.diagnostics import OptionError, UsageError, EXIT_BAD_INPUT, EXIT_REFUSED, EXIT_USAGE, EXIT_WOULD_CHANGE
 from postproc.measure.features import owners
 from postproc.geometry import Profile, segment_of
 from postproc.measure.readers.probe import read_probe
@@ -539,7 +539,7 @@ def test_a_t_code_that_selects_no_tool_or_cancels_the_offset_is_refused(digits):
 
 @given(code=st.integers(0, 199))
 def test_an_m_code_the_control_gives_a_meaning_cannot_switch_the_probe(code):
-    for cycle in (Cycle(probe_on=str(code)), Cycle(probe_off=f"{code:02d}")):
+    for cycle in (Cycle(probe_on=str(code), probe_off="none"), Cycle(probe_on="none", probe_off=f"{code:02d}")):
         if code in RESERVED_M:
             with pytest.raises(OptionError, match=rf"M{code:02d} .* on a FANUC control, it cannot switch the probe"):
                 cycle.check()
@@ -565,3 +565,59 @@ def test_every_probing_program_generator_refuses_a_code_that_means_no_probe(run,
     assert result.stdout == ""
     assert result.stderr.startswith(f"postproc: error: {said}") and result.stderr.count("error:") == 1
     assert not target.exists()
+
+
+# -- the probe's switches come in pairs: on without off leaves the probe on after the cycle ---------------
+
+SWITCH = st.one_of(st.none(), st.sampled_from(["none", "NONE", "None"]), st.integers(10, 97).map(str))
+
+
+@given(on=SWITCH, off=SWITCH)
+def test_a_probe_switch_without_its_partner_is_refused(on, off):
+    """Either switch given without the other is a usage error naming the missing option and the
+    remedy; both (an M code, or none: the machine does it by itself) or neither are accepted."""
+    cycle = Cycle(probe_on=on, probe_off=off)
+    if (on is None) == (off is None):
+        if on is not None and on.isdigit() and off.isdigit() and int(on) == int(off):
+            with pytest.raises(OptionError, match="one M code cannot switch the probe both on and off"):
+                cycle.check()
+        else:
+            cycle.check()
+    elif off is None:
+        with pytest.raises(UsageError, match=r"--probe-on \S+ without --probe-off: the probing program would leave "
+                                             r"the probe switched on after the cycle; give --probe-off MNN"):
+            cycle.check()
+    else:
+        with pytest.raises(UsageError, match=r"--probe-off \S+ without --probe-on: .* give --probe-on MNN"):
+            cycle.check()
+
+
+@pytest.mark.parametrize("command", sorted(GENERATORS))
+@pytest.mark.parametrize("given_option, missing, said", [
+    (("--probe-on", "M50"), "--probe-off", "--probe-on M50 without --probe-off: the probing program would leave the "
+     "probe switched on after the cycle; give --probe-off MNN, the M code that switches it off, or --probe-off none "
+     "if the probe switches itself off (a timer)"),
+    (("--probe-off", "m51"), "--probe-on", "--probe-off M51 without --probe-on: the probing program would run its "
+     "skip moves with the probe off unless something else switched it on; give --probe-on MNN, the M code that "
+     "switches it on, or --probe-on none if the machine switches it on by itself (with the tool change)"),
+])
+def test_every_probing_program_generator_refuses_half_a_probe_switch(run, tmp_path, command, given_option, missing,
+                                                                     said):
+    target = tmp_path / "O8100.nc"
+    result = run(command, *GENERATORS[command], "--tool", "T0909", *given_option, "-o", str(target))
+    assert result.exit_code == EXIT_USAGE
+    assert result.stdout == ""
+    assert result.stderr == f"postproc: error: {said}\n"
+    assert not target.exists()
+
+
+@pytest.mark.parametrize("command", sorted(GENERATORS))
+def test_a_probe_that_switches_itself_off_is_said_so_in_the_program(run, command):
+    """--probe-off none: the program switches the probe on with its M code and says, where the
+    M code to switch it off would stand, that the probe does it by itself."""
+    result = run(command, *GENERATORS[command], "--tool", "T0909", "--probe-on", "M50", "--probe-off", "none")
+    assert result.exit_code == 0
+    lines = result.stdout.splitlines()
+    assert "M50 (PROBE ON)" in lines
+    assert lines[-3:] == ["(THE PROBE SWITCHES ITSELF OFF)", "M30", "%"]
+    assert "--probe" not in result.stderr

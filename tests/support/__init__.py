@@ -10,3 +10,17 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[2]
 SAMPLES = REPO / "samples"
 CORPUS = REPO / "tests" / "corpus"
+
+#: the sample hemishell (samples/programs/hemishell.nc) in inches: an inch program on its 0.0001 in grid
+INCH_HEMISHELL = """%
+O1003 (HEMISHELL IN INCHES)
+G18 G20 G40 G99
+T0101
+G00 X0. Z2.441
+G01 Z2.25 F0.003
+G03 X4.5 Z0. I0. K-2.25
+G01 X4.65
+G00 Z2.441
+M30
+%
+"""
