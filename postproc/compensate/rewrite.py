@@ -174,7 +174,8 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
                 self._hold_plans(entry)
         if self._previous is not None:
             self._join(self._previous, entry)
-        yield from self._flush(self._window)
+        for waiting in self._window:  # _flush's, without a generator of its own for every motion step
+            yield from self._write(waiting)
         self._window = [entry]
         self._previous = entry
 
