@@ -233,7 +233,7 @@ class Correcting:
         lines: list[Target] = []  # the straight targets, for measure_bends
         for entry, index, parts in wanted:
             last = first + len(parts)
-            if all(shifts[i] is None for i in range(first, last)):
+            if shifts[first] is None and (last == first + 1 or all(shifts[i] is None for i in range(first, last))):
                 first = last
                 continue
             targets, largest = [], 0.0

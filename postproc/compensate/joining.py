@@ -127,7 +127,8 @@ class Joining:
         entry.edits = [_as_it_is(move) if move.kind in (LINE, ARC) and move.known else None for move in entry.step.moves]
 
     def _connector(self, start, end, step: Step) -> Cut | None:
-        a, b = self._snap(step, start), self._snap(step, end)
+        grid = self._grid(step)  # _snap's, looked up once for both ends
+        a, b = grid.snap(*start), grid.snap(*end)
         if a == b:
             return None
         return Cut(a[0], a[1], b[0], b[1])
