@@ -8,11 +8,12 @@ their own."""
 from __future__ import annotations
 
 import math
+from itertools import accumulate
 
 import numpy as np
 
 from ..diagnostics import Location, SafetyError
-from ..geometry import Arc, Line, reversal_params_of, segment_of
+from ..geometry import Arc, Line, Segment, reversal_params_of, segment_of
 from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
 from . import monotone
 from .compensator import Piece
@@ -20,6 +21,8 @@ from .edits import Edit, Entry
 from .segmenter import Target, measure_bends, sample_params
 
 STEPS = (0.0005, 0.001)  #: the output grid's x and z steps (radius mm) of a metric diameter program
+_ALONG = (RUN, CONTOUR, CORNER)  #: the roles of the moves that run along the program
+_TRAVELLED = (LINE, ARC, RAPID)  #: the kinds of move whose travel :func:`travel_after` follows
 
 
 def sample_lines(parts: list[Piece]) -> None:
@@ -51,14 +54,16 @@ def _travel(dx: float, dz: float, last: tuple[int, int], steps: tuple[float, flo
 
 
 def pieces(move: Move, last: tuple[int, int] = (0, 0), steps: tuple[float, float] = STEPS,
-           turns: list[float] | None = None) -> list[Piece]:
+           turns: list[float] | None = None, segment: Segment | None = None) -> list[Piece]:
     """A move split where an axis reverses, so direction-dependent corrections act per side.
 
     ``last`` is the direction each axis last travelled in before the move; ``steps`` the
     output grid's steps in x and z (radius mm). Only reversals the grid can see count
-    (:func:`_turns`; ``turns``: what it gives for an arc move, when already worked out).
+    (:func:`_turns`; ``turns``: what it gives for an arc move, when already worked out;
+    ``segment``: the move's :func:`segment_of`, likewise).
     """
-    segment = segment_of(move)
+    if segment is None:
+        segment = segment_of(move)
     if isinstance(segment, Line):
         bounds = [0.0, 1.0]
     else:
@@ -68,11 +73,20 @@ def pieces(move: Move, last: tuple[int, int] = (0, 0), steps: tuple[float, float
         if isinstance(segment, Line) or (len(bounds) == 2 and segment.r1 is None):
             part = segment  # the whole move: part(0, 1) would be the same arc
         else:
-            part = segment.part(a, b)
+            part = _part(segment, a, b)
         (x0, z0), (x1, z1) = part.start, part.end
         last = _travel(x1 - x0, z1 - z0, last, steps)
         result.append(Piece(move, part, sample_params(part), *last))
     return result
+
+
+def _part(arc: Arc, a: float, b: float) -> Arc:
+    """``arc.part(a, b)``, the same floats: its radii worked out with floats rather than through
+    ``radius_at``'s arrays (one multiplication and one addition either way)."""
+    r, r1 = arc.r, arc.r1
+    if r1 is None:
+        return Arc(arc.xc, arc.zc, r, arc.theta0 + a * arc.sweep, (b - a) * arc.sweep)
+    return Arc(arc.xc, arc.zc, r + a * (r1 - r), arc.theta0 + a * arc.sweep, (b - a) * arc.sweep, r + b * (r1 - r))
 
 
 def _turns(arc: Arc, steps: tuple[float, float], found: list[float] | None = None) -> list[float]:
@@ -92,7 +106,7 @@ def _turns(arc: Arc, steps: tuple[float, float], found: list[float] | None = Non
         return found
     length = arc.length
     shortest = max(steps) / length if length > 0.0 else math.inf
-    theta0, sweep = arc.theta0, arc.sweep
+    theta0, sweep, r, r1 = arc.theta0, arc.sweep, arc.r, arc.r1
     kept: list[float] = []
     previous = 0.0
     for index, t in enumerate(found):
@@ -104,7 +118,7 @@ def _turns(arc: Arc, steps: tuple[float, float], found: list[float] | None = Non
         cosine_or_sine = (math.cos, math.sin)[axis]
 
         def value(u: float) -> float:  # the axis about the centre at parameter u, the radius drifting on a spiral
-            return cosine_or_sine(theta0 + u * sweep) * float(arc.radius_at(u))
+            return cosine_or_sine(theta0 + u * sweep) * (r if r1 is None else r + u * (r1 - r))  # arc.radius_at(u)
 
         here = value(t)
         travel = min(abs(here - value(before)), abs(value(after) - here))
@@ -116,9 +130,9 @@ def _turns(arc: Arc, steps: tuple[float, float], found: list[float] | None = Non
 
 
 def travel_after(move: Move, last: tuple[int, int], steps: tuple[float, float] = STEPS,
-                 turns: list[float] | None = None) -> tuple[int, int]:
+                 turns: list[float] | None = None, arc: Arc | None = None) -> tuple[int, int]:
     """The direction each axis last travelled in, once ``move`` has run: an arc's is that of
-    its last piece (as :func:`pieces` splits it; ``turns`` as there).
+    its last piece (as :func:`pieces` splits it; ``turns`` as there, ``arc`` its ``segment``).
 
     Worked out with floats, not the geometry's arrays: it runs for every move of the
     program, compensated or not."""
@@ -128,12 +142,13 @@ def travel_after(move: Move, last: tuple[int, int], steps: tuple[float, float] =
         return _travel(move.x1 - move.x0, move.z1 - move.z0, last, steps)
     if (move.x0, move.z0) == (move.xc, move.zc) == (move.x1, move.z1):
         return last
-    arc = segment_of(move)
+    if arc is None:
+        arc = segment_of(move)
     if arc.sweep == 0.0:
         return last
     if turns is None:
         turns = _turns(arc, steps)
-    (x0, z0) = arc.part(turns[-1], 1.0).start if turns else (move.x0, move.z0)
+    (x0, z0) = _part(arc, turns[-1], 1.0).start if turns else (move.x0, move.z0)
     return _travel(move.x1 - x0, move.z1 - z0, last, steps)
 
 
@@ -155,76 +170,113 @@ class Correcting:
         )
 
     def _correct(self, batch: list[Entry]) -> None:
-        """Give each motion step of the batch its edits (None for a move left as it is)."""
-        wanted: list[tuple[Entry, int, list[Piece]]] = []
-        turns = self._turns_of(batch)
-        for entry in batch:
-            if not entry.motion:
-                continue
-            step = entry.step
-            entry.edits = [None] * len(step.moves)
-            steps = self._steps(step)
-            for index, move in enumerate(step.moves):
-                mine = turns.get(id(move))
-                if self._candidate(step, move):
-                    wanted.append((entry, index, pieces(move, self._last_travel, steps, mine)))
-                if move.role in (RUN, CONTOUR, CORNER):
-                    self._last_travel = travel_after(move, self._last_travel, steps, mine)
-        if not wanted:
+        """Give each motion step of the batch its edits (None for a move left as it is).
+
+        The per-move work is :meth:`_candidate`, :func:`pieces` and :func:`travel_after`,
+        written out for the moves a CAM program is made of: an arc's geometry and turns are
+        worked out once for the batch (:meth:`_arcs_of`), a candidate line is one piece whose
+        travel is the axis directions after it."""
+        motions = [entry for entry in batch if entry.motion]
+        if not motions:
             return
+        arcs = self._arcs_of(motions)
+        wanted: list[tuple[Entry, int, list[Piece]]] = []
+        last = self._last_travel
+        selects = self.selects
+        for entry in motions:
+            step = entry.step
+            moves = step.moves
+            entry.edits = [None] * len(moves)
+            steps = self._steps(step)
+            open_ = (step.interpreted and not step.shared and step.block.delete is None
+                     and not (step.contour_start and step.cycle in monotone.ONE_WAY_CYCLES))
+            for index, move in enumerate(moves):
+                if move.role not in _ALONG:
+                    continue
+                kind = move.kind
+                if move.xc is None and move.exact and kind in _TRAVELLED and move.known:  # a line
+                    after = _travel(move.x1 - move.x0, move.z1 - move.z0, last, steps)  # travel_after's
+                    if (open_ and kind != RAPID and (kind == ARC or (move.x0, move.z0) != (move.x1, move.z1))
+                            and selects(step, move)):  # _candidate's
+                        segment = Line(move.x0, move.z0, move.x1, move.z1)  # pieces': one, moving as it leaves
+
+                        segment = Line(move.x0, move.z0, move.x1, move.z1)
+                        wanted.append((entry, index, [Piece(move, segment, sample_params(segment), *after)]))
+                    last = after
+                    continue
+                segment, turns = arcs.get(id(move), (None, None))
+                if open_ and kind in (LINE, ARC) and move.exact and move.known and selects(step, move):
+                    wanted.append((entry, index, pieces(move, last, steps, turns, segment)))
+                last = travel_after(move, last, steps, turns, segment)
+        self._last_travel = last
+        if wanted:
+            self._edits(wanted)
+
+    def _edits(self, wanted: list[tuple[Entry, int, list[Piece]]]) -> None:
+        """The corrections of the wanted moves' pieces, in one call, and the edits they make."""
         every = [piece for _, _, parts in wanted for piece in parts]
         sample_lines(every)
         shifts = self.corrector(every)
         given = [shift for shift in shifts if shift is not None]
-        if given:  # the largest correction of each corrected piece, in one pass
-            starts = np.cumsum([0] + [len(shift) for shift in given[:-1]])
-            joined = np.concatenate(given) if len(given) > 1 else given[0]
-            sizes = iter(np.maximum.reduceat(np.hypot(joined[:, 0], joined[:, 1]), starts).tolist())
+        if not given:
+            return
+        # the largest correction of each corrected piece, and every target's points, in one pass each
+        starts = np.cumsum([0] + [len(shift) for shift in given[:-1]])
+        joined = np.concatenate(given) if len(given) > 1 else given[0]
+        sizes = iter(np.maximum.reduceat(np.hypot(joined[:, 0], joined[:, 1]), starts).tolist())
+        rows = [len(piece.t) for piece in every]
+        wanted_d = [np.zeros((n, 2)) if shift is None else shift for shift, n in zip(shifts, rows)]
+        ends = list(accumulate(rows))
+        points = np.concatenate([piece.points for piece in every]) + np.concatenate(wanted_d)
+        limit = self.max_correction
         first = 0
         lines: list[Target] = []  # the straight targets, for measure_bends
         for entry, index, parts in wanted:
-            mine = shifts[first : first + len(parts)]
-            first += len(parts)
-            if all(shift is None for shift in mine):
+            last = first + len(parts)
+            if shifts[first] is None and (last == first + 1 or all(shifts[i] is None for i in range(first, last))):
+                first = last
                 continue
             targets, largest = [], 0.0
-            for piece, shift in zip(parts, mine):
-                if shift is None:
-                    shift = np.zeros((len(piece.t), 2))
-                else:
+            for i in range(first, last):
+                piece = parts[i - first]
+                if shifts[i] is not None:
                     size = next(sizes)
-                    if size > self.max_correction and entry.refusal is None:  # raised in program order
+                    if size > limit and entry.refusal is None:  # raised in program order
                         entry.refusal = SafetyError(f"a correction of {size:.4f} mm exceeds the maximum correction "
-                                                    f"{self.max_correction:g} mm (--max-correction)",
+                                                    f"{limit:g} mm (--max-correction)",
                                                     Location(self.file, piece.move.line))
-                    largest = max(largest, size)
-                targets.append(Target.along(piece.segment, piece.t, shift, piece.points))
+                    if size > largest:
+                        largest = size
+                target = Target(piece.segment, piece.t, wanted_d[i])
+                target.__dict__["points"] = points[ends[i] - rows[i] : ends[i]]  # Target.along's, in one pass
+                targets.append(target)
+            first = last
             moved = largest > 0.0
-            if moved and (entry.kept or self._macro_kept(entry)):
-                continue  # left as it is: its correction is not applied
-            self.largest = max(self.largest, largest)
+            if moved and (entry.kept or (entry.step.block.fields is None and self._macro_kept(entry))):
+                continue  # left as it is: its correction is not applied (a canonical block reads no macro variable)
+            if largest > self.largest:
+                self.largest = largest
             if moved:
-                edit = Edit(parts[0].move, _merge_continuous(targets, self._tolerance(entry.step) / 10.0))
-                entry.edits[index] = edit
-                if type(edit.targets[0].nominal) is Line:
-                    lines.append(edit.targets[0])
+                if len(targets) > 1:
+                    targets = _merge_continuous(targets, self._tolerance(entry.step) / 10.0)
+                entry.edits[index] = Edit(parts[0].move, targets)
+                if type(targets[0].nominal) is Line:
+                    lines.append(targets[0])
         measure_bends(lines)
 
-    def _turns_of(self, batch: list[Entry]) -> dict[int, list[float]]:
-        """:func:`_turns` of every arc move of the batch's motion steps (by ``id`` of the move),
-        their reversal parameters found in one array pass: :func:`pieces` and
+    def _arcs_of(self, motions: list[Entry]) -> dict[int, tuple[Arc, list[float]]]:
+        """The arc of every arc move of the batch's motion steps and its :func:`_turns` (by ``id``
+        of the move), their reversal parameters found in one array pass: :func:`pieces` and
         :func:`travel_after` both need them, for every arc of the program."""
         arcs: list[Arc] = []
         owners: list[tuple[Move, tuple[float, float]]] = []
-        for entry in batch:
-            if not entry.motion:
-                continue
+        for entry in motions:
             steps = self._steps(entry.step)
             for move in entry.step.moves:
                 if move.kind == ARC and move.xc is not None and move.known and move.exact:
                     arcs.append(segment_of(move))
                     owners.append((move, steps))
-        return {id(move): _turns(arc, steps, found)
+        return {id(move): (arc, _turns(arc, steps, found))
                 for (move, steps), arc, found in zip(owners, arcs, reversal_params_of(arcs))}
 
 

@@ -62,7 +62,10 @@ class Entry:
 
     @property
     def edited(self) -> bool:
-        return any(edit is not None for edit in self.edits)
+        edits = self.edits
+        if len(edits) == 1:  # a step of one move, most steps: asked of every step several times
+            return edits[0] is not None
+        return any(edit is not None for edit in edits)
 
     @cached_property
     def motion(self) -> bool:

@@ -14,6 +14,7 @@ from .edits import NUMBERS, Entry, _as_it_is, _group, macro_word
 from .segmenter import Cut
 
 JOIN = 1e-9  #: nominal points closer than this are the same point
+_ALONG = (RUN, CONTOUR, CORNER)  #: the roles of the moves that run along the program
 
 
 class Joining:
@@ -21,21 +22,27 @@ class Joining:
 
     def _join(self, previous: Entry, entry: Entry | None) -> None:
         """Settle how the last move of ``previous`` meets the first move of ``entry``."""
-        moves = [m for m in previous.step.moves if m.role in (RUN, CONTOUR, CORNER)]
-        last_move = moves[-1]
-        last_edit = previous.edits[previous.step.moves.index(last_move)]
         if entry is None:  # the program ends: nothing follows from the nominal end
             return
-        firsts = [m for m in entry.step.moves if m.role in (RUN, CONTOUR, CORNER)]
-        first_move = firsts[0]
-        first_edit = entry.edits[entry.step.moves.index(first_move)]
+        moves = previous.step.moves  # a motion step's: one of them runs along the program, most often the one
+        if len(moves) == 1:
+            last_move, last_edit = moves[0], previous.edits[0]
+        else:
+            last_move = [m for m in moves if m.role in _ALONG][-1]
+            last_edit = previous.edits[moves.index(last_move)]
+        moves = entry.step.moves
+        if len(moves) == 1:
+            first_move, first_edit = moves[0], entry.edits[0]
+        else:
+            first_move = next(m for m in moves if m.role in _ALONG)
+            first_edit = entry.edits[moves.index(first_move)]
         connected = (
             None not in (last_move.x1, last_move.z1, first_move.x0, first_move.z0)
             and abs(last_move.x1 - first_move.x0) < JOIN
             and abs(last_move.z1 - first_move.z0) < JOIN
             and (last_move.role == CONTOUR) == (first_move.role == CONTOUR)
         )
-        if self._has_corner(previous.step.block) and first_edit is not None and not previous.edited:
+        if first_edit is not None and self._has_corner(previous.step.block) and not previous.edited:
             if self._macro_kept(previous, entry):  # the corner cannot be written out: the follower stays too
                 entry.edits = [None] * len(entry.step.moves)
                 first_edit = None
@@ -120,7 +127,8 @@ class Joining:
         entry.edits = [_as_it_is(move) if move.kind in (LINE, ARC) and move.known else None for move in entry.step.moves]
 
     def _connector(self, start, end, step: Step) -> Cut | None:
-        a, b = self._snap(step, start), self._snap(step, end)
+        grid = self._grid(step)  # _snap's, looked up once for both ends
+        a, b = grid.snap(*start), grid.snap(*end)
         if a == b:
             return None
         return Cut(a[0], a[1], b[0], b[1])

@@ -267,14 +267,18 @@ class Pipeline:
         model = self.request.model
 
         def correct(pieces: list[Piece]) -> list[np.ndarray | None]:
-            totals: list[np.ndarray | None] = [None] * len(pieces)
+            totals: list[np.ndarray | None] | None = None
             for compensator in compensators:
                 shifts = self._guarded(compensator, "correct", compensator.correct_many, pieces, model=model)
-                for index, shift in enumerate(_checked(compensator.name, shifts, pieces)):
+                checked = _checked(compensator.name, shifts, pieces)
+                if totals is None:  # the first compensator's corrections are the sums so far
+                    totals = checked
+                    continue
+                for index, shift in enumerate(checked):
                     if shift is not None:
                         total = totals[index]
                         totals[index] = shift if total is None else total + shift
-            return totals
+            return totals if totals is not None else [None] * len(pieces)
 
         return correct
 

@@ -43,7 +43,7 @@ from ..machine.profile import MachineProfile
 from ..machine.resolution import Grid
 from . import monotone
 from .compensator import Piece
-from .correcting import Correcting, STEPS, _travel, _turns, pieces, sample_lines, travel_after
+from .correcting import _ALONG, Correcting, STEPS, _travel, _turns, pieces, sample_lines, travel_after
 from .edits import _CALLS, _INCREMENTAL_OF, KEEP, MACRO_VALUES, NAMED, NUMBERS, REFUSE, Edit, Entry, macro_word
 from .joining import Joining
 from .one_way import OneWayRule, _OneWay
@@ -174,7 +174,8 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
                 self._hold_plans(entry)
         if self._previous is not None:
             self._join(self._previous, entry)
-        yield from self._flush(self._window)
+        for waiting in self._window:  # _flush's, without a generator of its own for every motion step
+            yield from self._write(waiting)
         self._window = [entry]
         self._previous = entry
 
@@ -191,7 +192,11 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
         alarm = None
         try:
             for step in steps:
-                batch.append(Entry(step))
+                entry = Entry(step)
+                moves = step.moves  # Entry.motion, as the cached property would find it, without its lock
+                entry.__dict__["motion"] = (moves[0].role in _ALONG or any(move.role in _ALONG for move in moves)
+                                            if moves else False)
+                batch.append(entry)
                 if len(batch) == BATCH:
                     self._correct(batch)
                     yield batch

@@ -1,0 +1,96 @@
+"""Correcting: a batch's moves split into pieces and corrected in one call, held to the route
+that takes each move alone (its own arc, turns, pieces and travel, each target sampled by itself)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from postproc.compensate.correcting import _merge_continuous, _part, pieces, travel_after
+from postproc.compensate.edits import Entry
+from postproc.compensate.request import Request
+from postproc.compensate.rewrite import Rewriter
+from postproc.compensate.segmenter import Target
+from postproc.diagnostics import Reporter
+from postproc.geometry import Arc
+from postproc.interpret.program import interpret_source
+from postproc.machine.profile import DEFAULT
+from postproc.syntax.source import Source
+
+radii = st.floats(0.01, 500.0)
+angles = st.floats(-7.0, 7.0)
+
+
+@given(st.floats(-100, 100), st.floats(-100, 100), radii, angles, st.floats(-6.3, 6.3),
+       st.one_of(st.none(), radii), st.floats(0.0, 1.0), st.floats(0.0, 1.0))
+def test_an_arcs_part_worked_out_with_floats_is_arc_part_to_the_last_bit(xc, zc, r, theta0, sweep, r1, a, b):
+    arc = Arc(xc, zc, r, theta0, sweep, r1)
+    assert _part(arc, a, b) == arc.part(a, b)
+    assert arc.r + a * (arc.end_radius - arc.r) == float(arc.radius_at(a))  # the radii _turns works out
+
+
+def _program(moves) -> str:
+    """A diameter program of lines and I/K arcs, written to the micrometre: its arcs' end radii
+    drift from their start radii as a CAM post's do."""
+    x, z = 40.0, 0.0
+    lines = ["G18 G21 G40 G99", "T0101", f"G00 X{2 * x:.3f} Z{z:.3f}", "G01 F0.1"]
+    for kind, dx, dz, turn in moves:
+        if kind == "line":
+            x, z = max(x + dx, 1.0), z + dz
+            lines.append(f"G01 X{2 * x:.3f} Z{z:.3f}")
+            continue
+        xc, zc = x + dx, z + dz
+        r = math.hypot(x - xc, z - zc)
+        theta = math.atan2(z - zc, x - xc) + turn
+        ex, ez = xc + r * math.cos(theta), zc + r * math.sin(theta)
+        if ex < 1.0 or math.hypot(ex - x, ez - z) < 0.01:
+            continue
+        lines.append(f"{'G02' if turn > 0 else 'G03'} X{2 * ex:.3f} Z{ez:.3f} I{xc - x:.4f} K{zc - z:.4f}")
+        x, z = ex, ez
+    return "\n".join(["%", "O1000", *lines, "M30", "%"]) + "\n"
+
+
+def _bulge(parts):
+    """A correction that depends on the point and the piece's directions (as a backlash's does)."""
+    return [None if piece.move.line % 7 == 0 else
+            np.column_stack([1e-3 * np.sin(piece.points[:, 1]) + 2e-4 * piece.x_direction,
+                             1e-3 * np.cos(piece.points[:, 0]) - 2e-4 * piece.z_direction]) for piece in parts]
+
+
+move = st.tuples(st.sampled_from(["line", "arc"]), st.floats(-20, 20), st.floats(-20, 20),
+                 st.floats(-3.0, 3.0).filter(lambda turn: abs(turn) > 0.01))
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(move, min_size=1, max_size=25))
+def test_a_batch_gives_every_move_the_pieces_and_targets_it_gets_alone(moves):
+    with Source.from_text(_program(moves), "t.nc") as source:
+        steps = list(interpret_source(source))
+    rewriter = Rewriter(iter(()), _bulge, DEFAULT, Request(tolerance=0.001), Reporter(), "t.nc")
+    batch = [Entry(step) for step in steps]
+    rewriter._correct(batch)
+    last = (0, 0)
+    grid = DEFAULT.grid(False)
+    steps_mm = (grid.x_step, grid.z_step)
+    for entry in batch:
+        for index, one in enumerate(entry.step.moves):
+            edit = entry.edits[index] if entry.edits else None
+            if one.kind in ("line", "arc") and (one.kind == "arc" or (one.x0, one.z0) != (one.x1, one.z1)):
+                parts = pieces(one, last, steps_mm)  # the move alone: its own arc and turns
+                shifts = _bulge(parts)
+                if all(shift is None for shift in shifts):
+                    assert edit is None
+                else:
+                    alone = [Target.along(piece.segment, piece.t, np.zeros((len(piece.t), 2)) if shift is None
+                                          else shift, piece.points) for piece, shift in zip(parts, shifts)]
+                    alone = _merge_continuous(alone, 0.0001) if len(alone) > 1 else alone
+                    assert edit is not None and len(edit.targets) == len(alone)
+                    for mine, theirs in zip(edit.targets, alone):
+                        assert mine.nominal == theirs.nominal
+                        assert np.array_equal(mine.t, theirs.t) and np.array_equal(mine.d, theirs.d)
+                        assert np.array_equal(mine.points, theirs.points)
+            last = travel_after(one, last, steps_mm)
+    assert rewriter._last_travel == last
