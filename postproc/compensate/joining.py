@@ -7,10 +7,12 @@ their own."""
 
 from __future__ import annotations
 
+from ..diagnostics import Location, UnplannableBlock
 from ..interpret import gcodes as G
 from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Step
 from ..syntax.blocks import Block
 from .edits import NUMBERS, Entry, _as_it_is, _group, macro_word
+from .planning import INTERFERENCE
 from .segmenter import Cut
 
 JOIN = 1e-9  #: nominal points closer than this are the same point
@@ -127,8 +129,37 @@ class Joining:
         entry.edits = [_as_it_is(move) if move.kind in (LINE, ARC) and move.known else None for move in entry.step.moves]
 
     def _connector(self, start, end, step: Step) -> Cut | None:
+        """The connecting G01 from ``start`` to ``end``, written with ``step``'s block; None
+        when they are one point on the output grid."""
         grid = self._grid(step)  # _snap's, looked up once for both ends
         a, b = grid.snap(*start), grid.snap(*end)
         if a == b:
             return None
+        self._no_join_under_nose_offset(step, a, b)
         return Cut(a[0], a[1], b[0], b[1])
+
+    def _no_join_under_nose_offset(self, step: Step, a, b) -> None:
+        """Under G41/G42 the control offsets every block by the nose radius and joins the offset
+        paths at their intersections; a join of a few micrometres across the path (the
+        correction jumps, as it does at an axis reversal) has its offset path run backwards
+        (interference alarm PS0041, or a gouge of the order of the nose radius with the check
+        off), and a G41/G42/G40 carried by it starts or cancels the offset along a direction it
+        does not have. Such a join is refused, never written: the planner keeps its own blocks
+        long enough (:meth:`~postproc.compensate.planning.Planning._length_rule`), a join cannot be."""
+        nose = self.profile.nose_radius_mm
+        block = step.block
+        offset = step.modal.comp in (41, 42) or (block.fields is None and any(
+            letter == "G" and type(value) is str and value.lstrip("0") in ("40", "41", "42")
+            for letter, value in block.codes))
+        if not offset or nose <= 0.0:
+            return
+        length = ((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2) ** 0.5
+        word = next((w for w in block.words if w.letter in "XZUW"), None) or (block.words[0] if block.words else None)
+        raise UnplannableBlock(
+            f"block cannot be compensated: under tool nose radius compensation (G41/G42) the corrected path needs "
+            f"a join of {length * 1000:.1f} um here, and the control would offset it by the nose radius "
+            f"({nose:g} mm) into a path that runs backwards (interference alarm PS0041, or a gouge); compensate a "
+            f"program written for the tool's nose centre (G40), or state nose_radius_mm = 0 in the machine "
+            f"profile if the control does not offset this tool",
+            Location(self.file, block.line, None if word is None else word.col + 1, block.text),
+            INTERFERENCE, f"a {length * 1000:.1f} um join under G41/G42 ({INTERFERENCE})")

@@ -42,6 +42,7 @@ class Writing:
                     and not any(_group(value, self.profile.gcode_system) == G.ONE_SHOT for value in codes)
                 )
             if relies and self.mode_now is not None and before is not None and self.mode_now != before:
+                self._mode_outside_region(step, before)
                 writer = Writer(self._grid(step), self.profile.gcode_system, step.modal.absolute)
                 yield with_motion_code(block, writer.code(before, Style.of(block)))
                 self.mode_now = before
@@ -68,6 +69,19 @@ class Writing:
         self.replaced += 1
         self.emitted += len(lines)
         yield from lines
+
+    def _mode_outside_region(self, step: Step, mode: int) -> None:
+        """A block outside --region that relies on a motion mode a join inside the region no
+        longer leaves in force: writing the mode's code in front of it would change a block the
+        region leaves alone, so the run is refused with the block to add to the region."""
+        if not step.moves or self.inside(step, step.moves[0]):
+            return
+        block = step.block
+        raise SafetyError(
+            f"this block, outside --region, relies on modal {_code(mode)}, and the join written at the end of the "
+            f"region leaves {_code(self.mode_now)} in force: the block would need {_code(mode)} written in front of "
+            f"it; widen --region to take this block in",
+            Location(self.file, block.line, block.words[0].col + 1 if block.words else None, block.text))
 
     def _cuts(self, entry: Entry) -> list[Cut]:
         """The cuts that replace a step, each plan's share recorded for the self-check."""
@@ -162,3 +176,8 @@ def _macro_refusal(word, where: Location, detail: str) -> SafetyError:
         "the block would no longer follow the variable; give --macro-values keep to leave such blocks "
         "uncompensated, or --macro-values numbers to write them as numbers (the compensated program then holds "
         "only for the values the program gives its variables)", where)
+
+
+def _code(mode: int) -> str:
+    """The G code of a motion mode (the interpreter keeps G33 as 330)."""
+    return f"G{mode // 10:02d}" if mode % 10 == 0 else f"G{mode / 10:g}"

@@ -128,3 +128,23 @@ def test_a_sequence_number_on_two_blocks_is_refused_as_a_region(run, tmp_path):
     result = run("compensate", str(program), *TRACES, "--region", "N120")
     assert result.exit_code == 3 and result.stdout == ""
     assert "N120 stands on 2 blocks" in result.stderr and "give the lines instead, e.g. L8-L8" in result.stderr
+
+
+MODAL_ARCS = ("%\nO8000\nG18 G21 G40 G99\nT0101\nG96 S200 M03\nG00 X20. Z5.\nG01 Z0. F0.1\nX60. Z-20.\n"
+              "G02 X100. Z-40. R20.\nX120. Z-50. R10.\nG01 Z-60.\nG00 X150. Z50.\nM30\n%\n")
+
+
+@pytest.mark.parametrize("region", ["L9", "L8-L9"])
+def test_a_block_after_the_region_that_relies_on_its_mode_is_named_not_changed(run, tmp_path, region):
+    """The region's last block (a G02 arc) ends at a join, a G01, and the block after it,
+    outside the region, relies on modal G02: writing G02 in front of it would change a block the
+    region leaves alone, so the run is refused naming that block, and nothing is written."""
+    program = tmp_path / "p.nc"
+    program.write_text(MODAL_ARCS)
+    out = tmp_path / "out.nc"
+    result = run("compensate", str(program), *TRACES, "--region", region, "-o", str(out))
+    assert result.exit_code == 4 and result.stdout == "" and not out.exists()
+    assert f"{program}:10:1: error: this block, outside --region, relies on modal G02" in result.stderr
+    assert "widen --region" in result.stderr
+    wider = run("compensate", str(program), *TRACES, "--region", region.split("-")[0] + "-L10")
+    assert wider.exit_code == 0, wider.stderr

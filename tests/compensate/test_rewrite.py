@@ -413,3 +413,46 @@ def test_an_other_axis_word_that_moves_nothing_lets_the_block_split(before, word
     else:
         with pytest.raises(SafetyError, match=f"its {word[0]} move would stand on the first of the"):
             rewrite(text, wave(0.01), profile=profile, tolerance=0.001)
+
+
+def _shifted(shifts):
+    """A corrector that moves each line block (lines 5, 6, 7) by its own shift: the correction
+    jumps at every joint between them, as a backlash correction does at an axis reversal."""
+
+    def correct(piece):
+        line = piece.move.line
+        if piece.move.kind != LINE or not 5 <= line <= 7:
+            return None
+        return np.tile(shifts[line - 5], (len(piece.points), 1))
+
+    return correct
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(st.tuples(st.floats(-0.004, 0.004), st.floats(-0.004, 0.004)), min_size=3, max_size=3),
+       st.sampled_from([41, 42]), st.sampled_from([0.4, 0.8]))
+def test_no_join_is_written_under_nose_radius_compensation(shifts, comp, nose):
+    """Under G41/G42 the control offsets every block by the nose radius: a join of a few
+    micrometres across the path would run backwards once offset (interference alarm, or a
+    gouge). Such a join is refused naming the block; without it the program is written, every
+    cutting block under the offset as long as the nose radius. The same program with
+    nose_radius_mm = 0 (a control that does not offset this tool) is written with its joins."""
+    text = (f"G18 G21 G99 F0.1 S500\nG00 X20. Z5.\nG01 Z3.\nG{comp} G01 Z0.\nX60. Z-20.\nZ-40.\n"
+            "X80. Z-45.\nG40 G00 X100. Z5.\n")
+    try:
+        out, _ = rewrite(text, _shifted(shifts), _nose(nose), tolerance=0.001)
+    except SafetyError as exc:
+        assert "G41/G42" in exc.message and "interference" in exc.message and exc.location.line in (6, 7, 8)
+        assert exc.location.col is not None
+    else:
+        cutting = [m for m in moves(out) if m.kind == "line" and m.line >= 4 and m.z1 != 5.0]
+        assert all(math.hypot(m.x1 - m.x0, m.z1 - m.z0) >= nose for m in cutting)
+    out, _ = rewrite(text, _shifted(shifts), _nose(0.0), tolerance=0.001)
+    assert len(arcs_and_lines(out)) >= len(arcs_and_lines(text))
+
+
+def test_a_correction_that_jumps_under_g42_is_refused_at_the_block():
+    text = "G18 G21 G99 F0.1 S500\nG00 X20. Z5.\nG01 Z3.\nG42 G01 Z0.\nX60. Z-20.\nZ-40.\nX80. Z-45.\nG40 G00 X100. Z5.\n"
+    with pytest.raises(SafetyError) as info:
+        rewrite(text, _shifted([(0.002, 0.0), (-0.002, 0.001), (0.0, 0.003)]), _nose(0.4), tolerance=0.001)
+    assert info.value.location.line == 6 and "join of" in info.value.message and "nose_radius_mm = 0" in info.value.message
