@@ -44,8 +44,9 @@ class Planning:
                     edit = entry.edits[index] = _as_it_is(move)
                 if edit is not None:
                     edit.plans = [self._plan(step, target, edit.held.get(i)) for i, target in enumerate(edit.targets)]
-            _one_block_for_other_axes(entry, sum(len(plan.cuts) for edit in entry.edits if edit is not None
-                                                 for plan in edit.plans), self.file)
+            if entry.moving is not None:  # the count matters only to a block that moves another axis too
+                _one_block_for_other_axes(entry, sum(len(plan.cuts) for edit in entry.edits if edit is not None
+                                                     for plan in edit.plans), self.file)
         except UnplannableBlock as exc:
             if not self.request.keep_unplannable:
                 raise

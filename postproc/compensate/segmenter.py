@@ -205,6 +205,7 @@ class Frame:
         self.nominal = nominal
         if isinstance(nominal, Arc):
             self.centre = np.array(nominal.centre)
+            self.cx, self.cz = nominal.xc, nominal.zc
             self.sign = 1.0 if nominal.sweep >= 0 else -1.0
             self.mid = nominal.theta0 + nominal.sweep / 2.0
             self.half = abs(nominal.sweep) / 2.0
@@ -225,10 +226,13 @@ class Frame:
     def _arc_uv(self, rel_x: np.ndarray, rel_z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """u and v of points given relative to an arc frame's centre (worked in place)."""
         along = np.arctan2(rel_z, rel_x)
-        along -= self.mid
-        along *= self.sign
+        if self.sign > 0.0:
+            along -= self.mid
+        else:  # (along - mid) * -1 in one pass: IEEE subtraction is exactly antisymmetric (a zero's sign
+            np.subtract(self.mid, along, out=along)  # aside, which the pi added next erases)
         along += math.pi
-        np.remainder(along, TAU, out=along)
+        if not (along[along.argmin()] >= 0.0 and along[along.argmax()] < TAU):  # else the remainder is each value
+            np.remainder(along, TAU, out=along)  # (a zero's sign aside, which subtracting pi erases)
         along -= math.pi
         along += self.half
         along *= self.r
@@ -248,28 +252,80 @@ class Frame:
         rel_x = np.cos(theta)
         rel_x *= radius
         rel_x += cut.xc
-        rel_x -= self.centre[0]
+        rel_x -= self.cx
         rel_z = np.sin(theta)
         rel_z *= radius
         rel_z += cut.zc
-        rel_z -= self.centre[1]
+        rel_z -= self.cz
         return self._arc_uv(rel_x, rel_z)
 
 
 def _deviation(target_u: np.ndarray, target_v: np.ndarray, pu: np.ndarray, pv: np.ndarray,
-               target_graph: bool = True) -> float:
+               target_graph: bool = True, target_rising: bool = False) -> float:
     """Largest distance across the frame between a target and a path (u, v of each), both
-    graphs in u. ``target_graph`` False: the caller knows the target turns back in u."""
-    if not target_graph or np.fmin.reduce(pu[1:] - pu[:-1]) < -1e-9:  # a step back (fmin: as any(), NaN aside)
+    graphs in u. ``target_graph`` False: the caller knows the target turns back in u;
+    ``target_rising``: it knows the target's u strictly increases (see :func:`_rising_deviation`)."""
+    if not target_graph:
+        return math.inf
+    steps = pu[1:] - pu[:-1]
+    least = steps[steps.argmin()]  # NaN if any step is: then the least of the others decides
+    if least < -1e-9 or (least != least and np.fmin.reduce(steps) < -1e-9):
         return math.inf  # not a graph over the nominal: this path does not follow the target
     low = max(target_u[0], pu[0])
     high = min(target_u[-1], pu[-1])
+    if target_rising and least > 0.0:
+        return _rising_deviation(target_u, target_v, pu, pv, low, high)
     grid = np.concatenate([target_u, pu])
     grid = grid[(grid >= low) & (grid <= high)]
     if len(grid) == 0:
         return math.inf
     gap = np.abs(np.interp(grid, target_u, target_v) - np.interp(grid, pu, pv))
-    return float(gap.max())
+    return float(_largest_of(gap))
+
+
+def _rising_deviation(target_u: np.ndarray, target_v: np.ndarray, pu: np.ndarray, pv: np.ndarray, low, high) -> float:
+    """:func:`_deviation` of two graphs whose u both strictly increase, the same float with half
+    the interpolation: each graph read at its own samples is its own v (``np.interp`` returns
+    ``fp[j]`` where ``x == xp[j]``), so the gap at a target sample is its v less the path read
+    there, and at a path sample the target read there less its v; and the samples of each within
+    [low, high] are one run, found by a search at the end where the other graph reaches less far."""
+    first, last = 0, len(target_u)
+    start, stop = 0, len(pu)
+    if target_u[0] >= pu[0]:
+        start = int(pu.searchsorted(low, "left"))
+    else:
+        first = int(target_u.searchsorted(low, "left"))
+    if target_u[-1] <= pu[-1]:
+        stop = int(pu.searchsorted(high, "right"))
+    else:
+        last = int(target_u.searchsorted(high, "right"))
+    if first >= last and start >= stop:
+        return math.inf
+    largest = -math.inf
+    if first < last:
+        gap = np.abs(target_v[first:last] - np.interp(target_u[first:last], pu, pv))
+        largest = gap[gap.argmax()]
+    if start < stop:
+        gap = np.abs(np.interp(pu[start:stop], target_u, target_v) - pv[start:stop])
+        largest = _largest(largest, gap[gap.argmax()])
+    return float(largest)
+
+
+def _largest_of(values: np.ndarray):
+    """``values.max()`` (NaN if any value is), read at its index: a ufunc reduction costs several
+    times an arg-search on the short arrays the segmenter works on."""
+    return values[values.argmax()]
+
+
+def _largest(a: float, b: float) -> float:
+    """``np.maximum`` of two floats: the larger, NaN if either is."""
+    return a if a >= b or a != a else b
+
+
+@lru_cache(maxsize=16)
+def _grid_constants(grid: Grid) -> tuple[float, int, float]:
+    """A grid's step, decimals and unit (properties worked out on every call), once per grid."""
+    return grid.step, grid.decimals, grid.unit
 
 
 @dataclass(frozen=True)
@@ -300,7 +356,9 @@ class Segmenter:
         self.grid = limits.grid
         self.frame = Frame(target.nominal)
         self.u, self.v = self.frame.uv(target.points)
-        self._backwards = np.flatnonzero(self.u[1:] - self.u[:-1] < -1e-9).tolist()  # k where u[k + 1] < u[k]
+        steps = self.u[1:] - self.u[:-1]
+        self._backwards = (steps < -1e-9).nonzero()[0].tolist()  # k where u[k + 1] < u[k]
+        self._rising = len(steps) > 0 and bool(steps[steps.argmin()] > 0.0)  # u strictly increases (NaN: no)
         self.tol = limits.tolerance
         # A chord sampled every h and read linearly across an arc's frame misses up to h^2/(8r):
         # keep that under a hundredth of the tolerance on small arcs (arc cuts: see _spacing).
@@ -311,9 +369,9 @@ class Segmenter:
             self._frame_curvature = 1.0 / target.nominal.r
         last = len(target.t) - 1
         self.last = last
-        self.vertices: dict[int, tuple[float, float]] = {}
-        self.vertices[0] = self._snap_index(0)
-        self.vertices[last] = self._snap_index(last)
+        ends = target.points[::last].tolist() if last else target.points[[0, 0]].tolist()
+        self._ends = ends  #: the target's first and last sample, as floats
+        self.vertices: dict[int, tuple[float, float]] = {0: self.grid.snap(*ends[0]), last: self.grid.snap(*ends[1])}
 
     # ---------------------------------------------------------------- measuring
 
@@ -337,35 +395,37 @@ class Segmenter:
         frame = self._frame_curvature
         if frame:
             mid_x, mid_z = (cut.x0 + cut.x1) / 2.0, (cut.z0 + cut.z1) / 2.0
-            centre = self.frame.centre
-            same = (cut.xc - mid_x) * (centre[0] - mid_x) + (cut.zc - mid_z) * (centre[1] - mid_z) > 0.0
+            frame_x, frame_z = self.frame.cx, self.frame.cz
+            same = (cut.xc - mid_x) * (frame_x - mid_x) + (cut.zc - mid_z) * (frame_z - mid_z) > 0.0
             curvature = abs(curvature - frame) if same else curvature + frame
         if curvature * self.spacing * self.spacing <= 0.08 * self.tol:
             return self.spacing
         return math.sqrt(0.08 * self.tol / curvature)
 
-    def _measure(self, cut: Cut, i: int, j: int) -> float:
-        """Deviation of one cut from the target samples i..j (and its end points)."""
+    def _measure(self, cut: Cut, i: int, j: int, ends: float | None = None) -> float:
+        """Deviation of one cut from the target samples i..j (and its end points; ``ends``: their
+        larger distance from the cut's, when the caller has it)."""
         pu, pv = self.frame.path_uv(cut, self._spacing(cut))
-        deviation = _deviation(self.u[i : j + 1], self.v[i : j + 1], pu, pv, self._graph(i, j))
-        ends = max(
-            math.dist(cut.start, self.target.points[i].tolist()),
-            math.dist(cut.end, self.target.points[j].tolist()),
-        )
+        deviation = _deviation(self.u[i : j + 1], self.v[i : j + 1], pu, pv, self._graph(i, j), self._rising)
+        if ends is None:
+            ends = self._ends_off(cut.x0, cut.z0, cut.x1, cut.z1, i, j)
         return max(deviation, ends)
+
+    def _ends_off(self, x0: float, z0: float, x1: float, z1: float, i: int, j: int) -> float:
+        """How far the ends of a cut lie from target samples i and j."""
+        points = self.target.points
+        first = self._ends[0] if i == 0 else points[i].tolist()
+        last = self._ends[1] if j == self.last else points[j].tolist()
+        return max(math.dist((x0, z0), first), math.dist((x1, z1), last))
 
     def measure(self, cuts: list[Cut]) -> float:
         """Deviation of a whole plan from the whole target."""
         pu, pv = self.frame.uv(np.concatenate([cut.sample(self._spacing(cut)) for cut in cuts]))
-        deviation = _deviation(self.u, self.v, pu, pv, self._graph(0, self.last))
+        deviation = _deviation(self.u, self.v, pu, pv, self._graph(0, self.last), self._rising)
         ends = max(math.dist(cuts[0].start, self.target.start), math.dist(cuts[-1].end, self.target.end))
         return max(deviation, ends)
 
     # ---------------------------------------------------------------- grid points
-
-    def _snap_index(self, index: int) -> tuple[float, float]:
-        """Sample ``index`` moved onto the grid; the end points of the target stay end points."""
-        return self.grid.snap(*self.target.points[index].tolist())
 
     def _vertex(self, index: int, offset: float = 0.0) -> tuple[float, float]:
         """A grid point near sample ``index``, ``offset`` outside the target (across the frame).
@@ -444,24 +504,24 @@ class Segmenter:
             return None, math.inf
         cw = self._direction(a, b, centre, points[len(points) // 2].tolist())
         cuts, rings = [], []
+        radius_tolerance = self.limits.arc_radius_tolerance
         for cand in self._rounded_centres(a, centre):
             r0 = math.hypot(a[0] - cand[0], a[1] - cand[1])  # as Cut._spiral
             r1 = math.hypot(b[0] - cand[0], b[1] - cand[1])
-            if abs(r1 - r0) > self.limits.arc_radius_tolerance:
+            if abs(r1 - r0) > radius_tolerance:
                 continue
             if abs(cand[0] - a[0]) < 1e-12 and abs(cand[1] - a[1]) < 1e-12:
                 continue
             cuts.append(Cut(a[0], a[1], b[0], b[1], cand[0], cand[1], cw))
             rings.append((r0, r1) if r0 <= r1 else (r1, r0))
-        bounds = self._radial_bounds(cuts, rings, points) if cuts else []
-        candidates = sorted(zip(bounds, range(len(cuts)), cuts))
-        ends = max(math.dist(a, self.target.points[i].tolist()), math.dist(b, self.target.points[j].tolist()))  # as _measure
+        if not cuts:
+            return None, math.inf
+        ends = self._ends_off(a[0], a[1], b[0], b[1], i, j)  # as _measure
         best, best_dev = None, math.inf
-        for bound, _, cut in candidates:
-            bound = max(bound, ends)
-            if bound >= best_dev:
+        for bound, _, cut in sorted(zip(self._radial_bounds(cuts, rings, points), range(len(cuts)), cuts)):
+            if max(bound, ends) >= best_dev:
                 break  # no candidate left can beat the best: measuring them is wasted work
-            deviation = self._measure(cut, i, j)
+            deviation = self._measure(cut, i, j, ends)
             if deviation < best_dev:
                 best, best_dev = cut, deviation
         return best, best_dev
@@ -473,21 +533,23 @@ class Segmenter:
         for a cut whose ends sit at slightly different radii) is never more than the
         deviation measured across the frame, less the small error of reading the sampled
         path linearly (a hundredth of the tolerance, see ``spacing``: the slack is five).
-        The ends are left out: they may lie beyond the cut's span. All cuts at once."""
+        The ends are left out: they may lie beyond the cut's span. All cuts at once, the
+        last few sums of each in floats (numpy calls on four values cost more than they do)."""
+        slack = 0.05 * self.tol
         if len(points) <= 2:
-            return [-0.05 * self.tol] * len(cuts)
+            return [-slack] * len(cuts)
         inner = points[1:-1]
         centres = np.array([(cut.xc, cut.zc) for cut in cuts])
-        rings = np.array(rings)
         distance = np.hypot(inner[None, :, 0] - centres[:, None, 0], inner[None, :, 1] - centres[:, None, 1])
         # the farthest sample outside a ring and the nearest inside it decide: a rounded
         # difference with a fixed ring radius grows with the distance, so max(d - r) is max(d) - r
-        outside = np.maximum(np.maximum(distance.max(axis=1) - rings[:, 1], rings[:, 0] - distance.min(axis=1)), 0.0)
-        return (outside - 0.05 * self.tol).tolist()
+        farthest, nearest = distance.max(axis=1).tolist(), distance.min(axis=1).tolist()
+        return [_largest(_largest(far - high, low - near), 0.0) - slack
+                for far, near, (low, high) in zip(farthest, nearest, rings)]
 
     def _centre_guess(self, points: np.ndarray, i: int, j: int):
         if isinstance(self.frame.nominal, Arc) and j - i >= 0.5 * self.last:
-            return tuple(self.frame.centre.tolist())
+            return (self.frame.cx, self.frame.cz)
         if len(points) >= 3:
             try:
                 xc, zc, _ = hyper_fit(points)
@@ -502,25 +564,31 @@ class Segmenter:
 
         With the centre at ``mid + lam * normal`` (``normal`` a unit vector across the chord
         from ``a`` to its mirror end), the radius is ``hypot(half, lam)`` and each sample's
-        offset along the normal is ``q - lam``: only the distances are arrays."""
+        offset along the normal is ``q - lam``: only the distances are arrays, each worked in
+        a buffer of its own (an iteration costs a dozen ufunc calls on a few dozen samples:
+        their overhead, not the arithmetic, is the time)."""
         rel = points - mid
         rel_x, rel_z = rel[:, 0], rel[:, 1]
         q = rel @ normal
         nx, nz = float(normal[0]), float(normal[1])
         half = math.dist(a, mid)
+        subtract, divide, hypot = np.subtract, np.divide, np.hypot
+        dist, jac, other = np.empty(len(q)), np.empty(len(q)), np.empty(len(q))
         for _ in range(iterations):
-            dist = np.hypot(rel_x - lam * nx, rel_z - lam * nz)
+            subtract(rel_x, lam * nx, out=dist)
+            subtract(rel_z, lam * nz, out=other)
+            hypot(dist, other, out=dist)
             radius = math.hypot(half, lam)
-            if radius == 0 or np.minimum.reduce(dist) == 0.0:  # a sample at the centre
+            if radius == 0 or dist[dist.argmin()] == 0.0:  # a sample at the centre (NaN: none, as min() reads)
                 return None
             # d(dist)/d(lam) = -(q - lam)/dist ; d(radius)/d(lam) = lam/radius
-            jac = lam - q
-            jac /= dist
-            jac -= lam / radius
+            subtract(lam, q, out=jac)
+            divide(jac, dist, out=jac)
+            subtract(jac, lam / radius, out=jac)
             denominator = float(jac @ jac)
             if denominator == 0:
                 return lam
-            dist -= radius  # the residual
+            subtract(dist, radius, out=dist)  # the residual
             step = -float(jac @ dist) / denominator
             lam += step
             if abs(step) < 1e-12 * max(1.0, abs(lam)):
@@ -537,12 +605,12 @@ class Segmenter:
 
     def _rounded_centres(self, a, centre):
         """The centres the four roundings of I and K (down or up, each) give."""
-        grid = self.grid
-        step, decimals = grid.step, grid.decimals
-        ix = (centre[0] - a[0]) / grid.unit
-        kz = (centre[1] - a[1]) / grid.unit
-        xs = [a[0] + grid.offset_of(rounded(fx(ix / step) * step, decimals)) for fx in (math.floor, math.ceil)]
-        zs = [a[1] + grid.offset_of(rounded(fz(kz / step) * step, decimals)) for fz in (math.floor, math.ceil)]
+        step, decimals, unit = _grid_constants(self.grid)
+        ix = (centre[0] - a[0]) / unit
+        kz = (centre[1] - a[1]) / unit
+        floor, ceil = math.floor, math.ceil
+        xs = [a[0] + rounded(fx(ix / step) * step, decimals) * unit for fx in (floor, ceil)]  # unit: Grid.offset_of
+        zs = [a[1] + rounded(fz(kz / step) * step, decimals) * unit for fz in (floor, ceil)]
         return {(x, z) for x in xs for z in zs}
 
     # ---------------------------------------------------------------- plans
@@ -564,7 +632,7 @@ class Segmenter:
         if not isinstance(nominal, Arc):
             return False
         sagitta = min(nominal.r, nominal.end_radius) * (1.0 - math.cos(min(abs(nominal.sweep), math.pi) / 2.0))
-        shift = float(np.hypot(self.target.d[:, 0], self.target.d[:, 1]).max())
+        shift = float(_largest_of(np.hypot(self.target.d[:, 0], self.target.d[:, 1])))
         return sagitta > self.tol + 2.0 * shift + 2.0 * self.grid.rounding_error
 
     def single_arc(self) -> Plan | None:
@@ -639,7 +707,7 @@ class Segmenter:
     def _measure_chord(self, cut: Cut, i: int, j: int) -> float:
         """A chord's vertices stand off the target on purpose: measure only across it."""
         pu, pv = self.frame.path_uv(cut, self._spacing(cut))
-        deviation = _deviation(self.u[i : j + 1], self.v[i : j + 1], pu, pv, self._graph(i, j))
+        deviation = _deviation(self.u[i : j + 1], self.v[i : j + 1], pu, pv, self._graph(i, j), self._rising)
         if i == 0:
             deviation = max(deviation, math.dist(cut.start, self.target.start))
         if j == self.last:

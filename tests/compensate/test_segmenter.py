@@ -9,7 +9,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from postproc.geometry import Arc, Line
+from postproc.geometry import TAU, Arc, Line
 from postproc.machine.profile import DEFAULT
 from postproc.machine.resolution import Grid
 from postproc.compensate.segmenter import Limits, Segmenter, Target, chord_minimum, measure_bends, plan, sample_params
@@ -278,3 +278,117 @@ def test_the_radial_bound_of_each_candidate_arc_is_the_farthest_sample_outside_i
         distance = np.hypot(inner[:, 0] - xc, inner[:, 1] - zc)
         expected.append(float(np.maximum(np.maximum(distance - high, low - distance), 0.0).max()) - 0.05 * tolerance)
     assert segmenter._radial_bounds(cuts, rings, samples) == expected
+
+
+def _merged_deviation(target_u, target_v, pu, pv) -> float:
+    """The deviation read on the merged grid of both graphs' samples, as the segmenter first did."""
+    if np.fmin.reduce(pu[1:] - pu[:-1]) < -1e-9:
+        return math.inf
+    low, high = max(target_u[0], pu[0]), min(target_u[-1], pu[-1])
+    grid = np.concatenate([target_u, pu])
+    grid = grid[(grid >= low) & (grid <= high)]
+    if len(grid) == 0:
+        return math.inf
+    return float(np.abs(np.interp(grid, target_u, target_v) - np.interp(grid, pu, pv)).max())
+
+
+_rising = st.lists(st.floats(1e-6, 2.0), min_size=1, max_size=40).map(lambda steps: np.cumsum(steps))
+
+
+@settings(max_examples=400, deadline=None)
+@given(_rising, _rising, st.floats(-3.0, 3.0), st.integers(0, 2**32 - 1), st.booleans())
+def test_the_deviation_of_two_rising_graphs_is_the_merged_grid_s_bit_for_bit(target_u, pu, shift, seed, shared):
+    """Both graphs strictly rising in u: reading each at the other's samples only (a graph read at
+    its own samples is its own v) gives the float the merged grid gives, overlapping or not, and
+    where samples of both fall at one u (``shared``: the path takes some of the target's, ends
+    included)."""
+    from postproc.compensate.segmenter import _deviation
+
+    rng = np.random.default_rng(seed)
+    target_u = np.concatenate([[0.0], target_u]) + shift * rng.random()
+    pu = np.concatenate([[0.0], pu]) + shift
+    if shared:
+        taken = target_u[rng.random(len(target_u)) < 0.5]
+        pu = np.unique(np.concatenate([pu[rng.random(len(pu)) < 0.5], taken, target_u[[0, -1]]]))
+    target_v, pv = rng.normal(0, 0.01, len(target_u)), rng.normal(0, 0.01, len(pu))
+    expected = _merged_deviation(target_u, target_v, pu, pv)
+    assert _deviation(target_u, target_v, pu, pv, True, True) == expected
+    assert _deviation(target_u, target_v, pu, pv, True, False) == expected
+
+
+def _reference_arc_uv(frame, points):
+    """u and v about an arc frame, written out as the segmenter first worked them."""
+    rel = points - np.array(frame.nominal.centre)
+    along = np.arctan2(rel[:, 1], rel[:, 0])
+    along = (along - frame.mid) * frame.sign
+    along = np.remainder(along + math.pi, TAU) - math.pi
+    return (along + frame.half) * frame.r, np.hypot(rel[:, 0], rel[:, 1]) - frame.r
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(0.5, 200.0), st.floats(0.0, 7.0), st.floats(-6.3, 6.3).filter(lambda s: abs(s) > 1e-3),
+       st.floats(-8.0, 8.0), st.floats(0.0, 1.2), st.integers(2, 60), st.integers(0, 2**32 - 1))
+def test_an_arc_frame_reads_u_and_v_bit_for_bit_as_written_out(radius, start, sweep, spread, noise, count, seed):
+    """The frame's in-place u (the sign folded into a subtraction, the remainder skipped when every
+    angle is already in range) is the written-out formula's, inside and outside the arc's sweep."""
+    from postproc.compensate.segmenter import Frame
+
+    rng = np.random.default_rng(seed)
+    arc = Arc(rng.normal(0, 20), rng.normal(0, 20), radius, start, sweep)
+    t = np.sort(rng.uniform(-spread, 1.0 + spread, count)) if spread > 1.0 else np.linspace(0.0, 1.0, count)
+    points = arc.point_at(t) + rng.normal(0, noise, (count, 2)) * radius * 0.1
+    frame = Frame(arc)
+    u, v = frame.uv(points)
+    ru, rv = _reference_arc_uv(frame, points)
+    assert np.array_equal(u, ru) and np.array_equal(v, rv)
+
+
+def _reference_refine(points, mid, normal, a, lam, iterations=12):
+    """Gauss-Newton on the centre's place along the chord's bisector, as the segmenter first wrote it."""
+    rel = points - mid
+    rel_x, rel_z = rel[:, 0], rel[:, 1]
+    q = rel @ normal
+    nx, nz = float(normal[0]), float(normal[1])
+    half = math.dist(a, mid)
+    for _ in range(iterations):
+        dist = np.hypot(rel_x - lam * nx, rel_z - lam * nz)
+        radius = math.hypot(half, lam)
+        if radius == 0 or np.minimum.reduce(dist) == 0.0:
+            return None
+        jac = lam - q
+        jac /= dist
+        jac -= lam / radius
+        denominator = float(jac @ jac)
+        if denominator == 0:
+            return lam
+        dist -= radius
+        step = -float(jac @ dist) / denominator
+        lam += step
+        if abs(step) < 1e-12 * max(1.0, abs(lam)):
+            break
+    return lam if math.isfinite(lam) else None
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(0.3, 300.0), st.floats(0.0, 6.3), st.floats(0.01, 3.0), st.floats(0.0, 0.05),
+       st.integers(3, 80), st.integers(0, 2**32 - 1), st.booleans())
+def test_the_centre_refined_in_buffers_is_the_written_out_gauss_newton_s(radius, start, sweep, wave, count, seed, on_centre):
+    """The in-buffer Gauss-Newton gives the written-out one's float, step for step (a sample on the
+    centre included, where both give up)."""
+    from postproc.compensate.segmenter import Segmenter
+
+    rng = np.random.default_rng(seed)
+    arc = Arc(rng.normal(0, 20), rng.normal(0, 20), radius, start, sweep)
+    points = arc.point_at(np.linspace(0.0, 1.0, count)) + rng.normal(0, wave, (count, 2))
+    a, b = tuple(points[0].tolist()), tuple(points[-1].tolist())
+    mid = ((a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0)
+    half = math.dist(a, b) / 2.0
+    normal = (-(b[1] - a[1]) / (2.0 * half), (b[0] - a[0]) / (2.0 * half))
+    lam = (arc.xc - mid[0]) * normal[0] + (arc.zc - mid[1]) * normal[1] + rng.normal(0, 0.1 * radius)
+    if on_centre:  # a sample exactly where the first iteration puts the centre
+        points[count // 2] = (mid[0] + lam * normal[0], mid[1] + lam * normal[1])
+        dist = np.hypot(points[:, 0] - mid[0] - lam * normal[0], points[:, 1] - mid[1] - lam * normal[1])
+        on_centre = bool(dist.min() == 0.0)
+    expected = _reference_refine(points, mid, normal, a, lam)
+    assert Segmenter._refine(points, mid, normal, a, lam) == expected
+    assert not on_centre or expected is None
