@@ -93,9 +93,10 @@ class Style:
         return self.word("G", digits if tenth == 0 else f"{digits}.{tenth}")
 
 
-@dataclass
+@dataclass(frozen=True)
 class Writer:
-    """Turns planned cuts into block text for one program."""
+    """Turns planned cuts into block text for one program (one per grid, system, mode and axes:
+    :func:`writer_for`)."""
 
     grid: Grid
     system: str  #: the control's G-code system (the machine profile's gcode_system)
@@ -158,9 +159,10 @@ class Writer:
 
     def replacement(self, block: Block, cuts: list[Cut], mode_before, label_last: bool = False) -> tuple[list[str], int]:
         """The text lines (with line endings) that replace ``block``, and the motion mode after them."""
-        style = Style.of(block)
+        fields = block.fields
+        style = Style._of_canonical(block) if fields is not None else Style.of(block)
         eob = ";" if style.eob else ""
-        eob_col = block.detail.eob_col if block.fields is None else None
+        eob_col = block.detail.eob_col if fields is None else None
         tail = eob if eob_col is None else block.text[eob_col:]  # "; (COOLANT OFF);" as it was written
         eol = block.eol
         between = eol or "\n"
@@ -169,9 +171,10 @@ class Writer:
         lines = []
         mode = mode_before
         for index, cut in enumerate(cuts):
-            wanted = self.motion_of(cut)
+            wanted = G.G00 if cut.rapid else (G.G01 if cut.xc is None else (G.G02 if cut.cw else G.G03))  # motion_of
             if index == 0:
-                parts = self._first_words(block, style, wanted, mode, cut, label_last)
+                parts = (self._first_canonical_words(block, style, wanted, mode, cut, label_last) if fields is not None
+                         else self._first_words(block, style, wanted, mode, cut, label_last))
             else:
                 parts = self.geometry_words(cut, style)
                 if wanted != mode:
@@ -246,6 +249,13 @@ class Writer:
         return parts
 
 
+@lru_cache(maxsize=64)
+def writer_for(grid: Grid, system: str, absolute: bool = True, axes: str = "XZ") -> Writer:
+    """The writer for a grid, G-code system, distance mode and axes, made once: a run writes
+    tens of thousands of blocks with one or two."""
+    return Writer(grid, system, absolute, axes)
+
+
 _NO_GEOMETRY = (None,) * 5  #: a canonical block's X Z I K R, none written
 
 
@@ -272,7 +282,10 @@ def _word_text(value: float, decimals: int, trim: bool, leading_zero: bool) -> s
     by one format: the rounded text T formats back to itself. Where the doubles are finer than the
     last decimal, the double nearest T is within half of one of them of T; where they are coarser,
     ``value`` itself is the double nearest T (T is within half a decimal of it)."""
-    return _spelled("%.*f" % (decimals, value), trim, leading_zero)
+    text = "%.*f" % (decimals, value)
+    if text[0] == "-" or not leading_zero:
+        return _spelled(text, trim, leading_zero)
+    return text.rstrip("0") if trim else text  # :func:`_spelled` of a number without a minus, kept inline
 
 
 @lru_cache(maxsize=256)

@@ -86,7 +86,10 @@ class SelfCheck:
                 nominal.append(segment_of(move))
         allowed = self.largest + tolerance + slack
         for cut in cuts:
-            if not any(within(cut, segment, allowed) for segment in nominal):
+            for segment in nominal:
+                if within(cut, segment, allowed):
+                    break
+            else:
                 distance = min(farthest(cut, segment) for segment in nominal)
                 raise SafetyError(
                     f"the replacement would run {distance * 1000:.1f} um from the programmed path, more than the "
