@@ -71,15 +71,16 @@ def _compensate(run, tmp_path):
 
 def _fault_in(monkeypatch, where: str, fault: BaseException):
     """Make the interpreter raise ``fault`` on every block (``everywhere``) or only where it reads
-    a replacement back (``self-check``)."""
-    step = interpreter.Interpreter.step
+    a replacement back (``self-check``), by its general path and its fast path alike."""
+    for name in ("step", "canonical_motion"):
+        real = getattr(interpreter.Interpreter, name)
 
-    def faulty(self, block):
-        if where == "everywhere" or self.profile.name == "self-check":
-            raise fault
-        return step(self, block)
+        def faulty(self, block, *args, real=real):
+            if where == "everywhere" or self.profile.name == "self-check":
+                raise fault
+            return real(self, block, *args)
 
-    monkeypatch.setattr(interpreter.Interpreter, "step", faulty)
+        monkeypatch.setattr(interpreter.Interpreter, name, faulty)
 
 
 @pytest.mark.parametrize("where", ["everywhere", "self-check"])
@@ -95,7 +96,7 @@ def test_a_bug_in_the_interpreter_is_an_internal_error(run, tmp_path, monkeypatc
 
 
 def test_a_bug_in_the_reader_of_the_self_check_is_an_internal_error(run, tmp_path, monkeypatch):
-    def broken(lines, file):
+    def broken(lines, file, **options):
         raise IndexError("list index out of range")
         yield  # a generator, as read_blocks is
 

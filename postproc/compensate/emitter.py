@@ -73,21 +73,16 @@ class Style:
         text = block.text
         trim = leading_zero = True
         for value in fields[2:]:
-            if value is not None and "." in value:
-                trim = trim and value[-1] != "0"
-                leading_zero = leading_zero and value.lstrip("+-")[0] != "."
-        joined = " " not in _canonical_words(text, fields) and sum(value is not None for value in fields[1:]) >= 2
-        return _style(joined, fields[1] is None or len(fields[1]) >= 2, trim, leading_zero, text.endswith(";"))
+            if value is not None and "." in value:  # at most one sign, and a digit beside the point
+                if value[-1] == "0":
+                    trim = False
+                if value[0] == "." or value[1] == "." and value[0] in "+-":
+                    leading_zero = False
+        joined = fields[1:].count(None) <= 5 and " " not in _canonical_words(text, fields)
+        return _style(joined, fields[1] is None or len(fields[1]) >= 2, trim, leading_zero, text[-1:] == ";")
 
     def number(self, value: float, decimals: int) -> str:
-        text = f"{value:.{decimals}f}"
-        if text.startswith("-") and float(text) == 0.0:
-            text = text[1:]
-        if self.trim:
-            text = text.rstrip("0")
-        if not self.leading_zero:
-            text = re.sub(r"^(-?)0\.(?=\d)", r"\1.", text)
-        return text
+        return _spelled("%.*f" % (decimals, value), self.trim, self.leading_zero)
 
     def word(self, letter: str, text: str) -> str:
         return (letter.lower() if self.lower else letter) + text
@@ -98,9 +93,10 @@ class Style:
         return self.word("G", digits if tenth == 0 else f"{digits}.{tenth}")
 
 
-@dataclass
+@dataclass(frozen=True)
 class Writer:
-    """Turns planned cuts into block text for one program."""
+    """Turns planned cuts into block text for one program (one per grid, system, mode and axes:
+    :func:`writer_for`)."""
 
     grid: Grid
     system: str  #: the control's G-code system (the machine profile's gcode_system)
@@ -119,14 +115,40 @@ class Writer:
         return G.G02 if cut.cw else G.G03
 
     def code(self, mode: int, style: Style) -> str:
-        return style.g(G.motion_code(self.system, mode))
+        return _code(self.system, mode, style.lower, style.two_digit_g)
 
     def geometry_words(self, cut: Cut, style: Style) -> list[str]:
-        grid = self.grid
-        x_word, z_word = grid.x_word(cut.x1), grid.z_word(cut.z1)
+        """X and Z of the cut's end (those of :attr:`axes` for a line), then an arc's I and K.
+
+        In absolute mode each value is rounded and spelled by one format (:func:`_word_text`),
+        not rounded to a float and formatted again: the same text (``tests/compensate/test_emitter.py``
+        holds the two to each other)."""
         if not self.absolute:
-            x_word = rounded(x_word - grid.x_word(cut.x0), grid.decimals)
-            z_word = rounded(z_word - grid.z_word(cut.z0), grid.decimals)
+            return self._incremental_words(cut, style)
+        grid = self.grid
+        decimals, trim, leading_zero = grid.decimals, style.trim, style.leading_zero
+        x_letter, z_letter, i_letter, k_letter = _LOWER if style.lower else _UPPER
+        unit = grid.unit
+        if cut.xc is None:
+            axes = self.axes
+            words = []
+            if "X" in axes:
+                words.append(x_letter + _word_text(cut.x1 * (2.0 if grid.diameter else 1.0) / unit, decimals, trim,
+                                                   leading_zero))
+            if "Z" in axes:
+                words.append(z_letter + _word_text(cut.z1 / unit, decimals, trim, leading_zero))
+            return words
+        return [x_letter + _word_text(cut.x1 * (2.0 if grid.diameter else 1.0) / unit, decimals, trim, leading_zero),
+                z_letter + _word_text(cut.z1 / unit, decimals, trim, leading_zero),
+                i_letter + _word_text((cut.xc - cut.x0) / unit, decimals, trim, leading_zero),
+                k_letter + _word_text((cut.zc - cut.z0) / unit, decimals, trim, leading_zero)]
+
+    def _incremental_words(self, cut: Cut, style: Style) -> list[str]:
+        """:meth:`geometry_words` in incremental mode (U and W written as X and Z under G91):
+        the difference of the rounded end and the rounded start, itself rounded."""
+        grid = self.grid
+        x_word = rounded(grid.x_word(cut.x1) - grid.x_word(cut.x0), grid.decimals)
+        z_word = rounded(grid.z_word(cut.z1) - grid.z_word(cut.z0), grid.decimals)
         words = [style.word(letter, style.number(word, grid.decimals))
                  for letter, word in (("X", x_word), ("Z", z_word)) if cut.is_arc or letter in self.axes]
         if cut.is_arc:
@@ -137,25 +159,33 @@ class Writer:
 
     def replacement(self, block: Block, cuts: list[Cut], mode_before, label_last: bool = False) -> tuple[list[str], int]:
         """The text lines (with line endings) that replace ``block``, and the motion mode after them."""
-        style = Style.of(block)
+        fields = block.fields
+        style = Style._of_canonical(block) if fields is not None else Style.of(block)
         eob = ";" if style.eob else ""
-        eob_col = block.detail.eob_col if block.fields is None else None
+        eob_col = block.detail.eob_col if fields is None else None
         tail = eob if eob_col is None else block.text[eob_col:]  # "; (COOLANT OFF);" as it was written
+        eol = block.eol
+        between = eol or "\n"
+        separator = style.separator
+        last = len(cuts) - 1
         lines = []
         mode = mode_before
         for index, cut in enumerate(cuts):
-            wanted = self.motion_of(cut)
+            wanted = G.G00 if cut.rapid else (G.G01 if cut.xc is None else (G.G02 if cut.cw else G.G03))  # motion_of
             if index == 0:
-                parts = self._first_words(block, style, wanted, mode, cut, label_last)
+                parts = (self._first_canonical_words(block, style, wanted, mode, cut, label_last) if fields is not None
+                         else self._first_words(block, style, wanted, mode, cut, label_last))
             else:
-                parts = [self.code(wanted, style)] if wanted != mode else []
-                parts += self.geometry_words(cut, style)
-            if label_last and index == len(cuts) - 1 and block.label is not None:
-                parts.insert(0, _label(block))
+                parts = self.geometry_words(cut, style)
+                if wanted != mode:
+                    parts.insert(0, self.code(wanted, style))
+            if index == last:
+                if label_last and block.label is not None:
+                    parts.insert(0, _label(block))
+                lines.append(separator.join(parts) + (tail if index == 0 else eob) + eol)
+            else:
+                lines.append(separator.join(parts) + (tail if index == 0 else eob) + between)
             mode = wanted
-            last = index == len(cuts) - 1
-            end = tail if index == 0 else eob
-            lines.append(style.separator.join(parts) + end + (block.eol if last else (block.eol or "\n")))
         return lines, mode
 
     def _first_words(self, block: Block, style: Style, wanted: int, mode, cut: Cut, label_last: bool) -> list[str]:
@@ -194,24 +224,75 @@ class Writer:
                                label_last: bool) -> list[str]:
         """:meth:`_first_words` of a canonical block, from its fields: N, a motion G code,
         the geometry words, F, then the comment."""
-        label, g, *geometry, feed = block.fields
+        fields = block.fields
+        label, g, feed = fields[0], fields[1], fields[7]
         parts = [] if label is None or label_last else ["N" + label]
-        code = [self.code(wanted, style)] if g is None and wanted != mode else []
+        code = []
         if g is not None:
             parts.append(self.code(wanted, style))
-        if any(value is not None for value in geometry):
-            parts += code + self.geometry_words(cut, style)
+        elif wanted != mode:
+            code.append(self.code(wanted, style))
+        if fields[2:7] != _NO_GEOMETRY:
+            parts += code
+            parts += self.geometry_words(cut, style)
             if feed is not None:
                 parts.append("F" + feed)
         else:  # nothing to swap: the geometry goes after the other words, as in _first_words
             if feed is not None:
                 parts.append("F" + feed)
-            parts += code + self.geometry_words(cut, style)
+            parts += code
+            parts += self.geometry_words(cut, style)
         text = block.text
         at = text.find("(")
         if at != -1:
             parts.append(text[at : text.index(")", at) + 1])
         return parts
+
+
+@lru_cache(maxsize=64)
+def writer_for(grid: Grid, system: str, absolute: bool = True, axes: str = "XZ") -> Writer:
+    """The writer for a grid, G-code system, distance mode and axes, made once: a run writes
+    tens of thousands of blocks with one or two."""
+    return Writer(grid, system, absolute, axes)
+
+
+_NO_GEOMETRY = (None,) * 5  #: a canonical block's X Z I K R, none written
+
+
+_UPPER, _LOWER = tuple("XZIK"), tuple("xzik")
+
+
+def _spelled(text: str, trim: bool, leading_zero: bool) -> str:
+    """A number formatted with its decimals (``"%.3f"``), spelled in a style: no minus on a zero,
+    trailing zeros trimmed (``114.3``, ``0.``), the zero before the point dropped (``.5``)."""
+    if text[0] == "-" and float(text) == 0.0:
+        text = text[1:]
+    if trim:
+        text = text.rstrip("0")
+    if not leading_zero:  # digits follow the point: "0." keeps its zero, the point alone being no number
+        if text[:2] == "0." and len(text) > 2:
+            text = text[1:]
+        elif text[:3] == "-0." and len(text) > 3:
+            text = "-" + text[2:]
+    return text
+
+
+def _word_text(value: float, decimals: int, trim: bool, leading_zero: bool) -> str:
+    """``Style.number(rounded(value, decimals) + 0.0, decimals)``, what a length word is written as,
+    by one format: the rounded text T formats back to itself. Where the doubles are finer than the
+    last decimal, the double nearest T is within half of one of them of T; where they are coarser,
+    ``value`` itself is the double nearest T (T is within half a decimal of it)."""
+    text = "%.*f" % (decimals, value)
+    if text[0] == "-" or not leading_zero:
+        return _spelled(text, trim, leading_zero)
+    return text.rstrip("0") if trim else text  # :func:`_spelled` of a number without a minus, kept inline
+
+
+@lru_cache(maxsize=256)
+def _code(system: str, mode: int, lower: bool, two_digit_g: bool) -> str:
+    """The G word that commands a motion mode, in a style (its case and G digits): a replacement
+    writes a few over and over."""
+    return Style(lower, two_digit_g=two_digit_g).g(G.motion_code(system, mode))
 
 
 @lru_cache(maxsize=64)
@@ -223,12 +304,11 @@ def _style(joined: bool, two_digit_g: bool, trim: bool, leading_zero: bool, eob:
 def _canonical_words(text: str, fields: tuple) -> str:
     """The words of a canonical line: the text between its label and its comment or ``;``."""
     start = 0 if fields[0] is None else 1 + len(fields[0])
-    end = len(text)
-    for mark in ("(", ";"):
-        at = text.find(mark, start)
-        if at != -1:
-            end = min(end, at)
-    return text[start:end].strip()
+    end = text.find("(", start)
+    if end == -1:
+        end = len(text)
+    at = text.find(";", start, end)
+    return text[start:end if at == -1 else at].strip()
 
 
 def _label(block: Block) -> str:

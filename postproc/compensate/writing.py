@@ -16,8 +16,11 @@ from ..interpret import gcodes as G
 from ..interpret.motion import RAPID, Step
 from ..syntax.blocks import Block
 from .edits import NAMED, NUMBERS, REFUSE, Entry, _as_it_is, _group, _one_block_for_other_axes, _where, macro_word
-from .emitter import Style, Writer, with_motion_code
+from .emitter import Style, with_motion_code, writer_for
 from .segmenter import Cut
+
+
+_NO_XZIK = (None,) * 4  #: a canonical block's X Z I K, none written
 
 
 class Writing:
@@ -32,7 +35,7 @@ class Writing:
             fields = block.fields
             if fields is not None:  # a canonical block: G00-G03 at most, read from its fields
                 sets_mode = fields[1] is not None
-                relies = not sets_mode and any(value is not None for value in fields[2:6])  # X Z I K
+                relies = not sets_mode and fields[2:6] != _NO_XZIK
             else:
                 codes = [value for letter, value in block.codes if letter == "G"]
                 sets_mode = any(_group(value, self.profile.gcode_system) == G.MOTION for value in codes)
@@ -43,7 +46,7 @@ class Writing:
                 )
             if relies and self.mode_now is not None and before is not None and self.mode_now != before:
                 self._mode_outside_region(step, before)
-                writer = Writer(self._grid(step), self.profile.gcode_system, step.modal.absolute)
+                writer = writer_for(self._grid(step), self.profile.gcode_system, step.modal.absolute)
                 yield with_motion_code(block, writer.code(before, Style.of(block)))
                 self.mode_now = before
                 return
@@ -60,7 +63,7 @@ class Writing:
         cuts = self._cuts(entry)
         _one_block_for_other_axes(entry, len(cuts), self.file, joined=True)  # joins may have split it
         self._within_limits(step, cuts)
-        writer = Writer(self._grid(step), self.profile.gcode_system, step.modal.absolute, entry.axes)
+        writer = writer_for(self._grid(step), self.profile.gcode_system, step.modal.absolute, entry.axes)
         lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
         self._self_check(entry, lines, cuts)
         self._near_nominal(entry, cuts)
@@ -92,15 +95,20 @@ class Writing:
             b = self._snap(step, entry.retarget[1] or (move.x1, move.z1))
             return [Cut(a[0], a[1], b[0], b[1], rapid=move.kind == RAPID)]
         cuts: list[Cut] = []
+        last = None  # the last cut added
 
         def add(cut: Cut | None) -> None:
+            nonlocal last
             if cut is None:
                 return
-            if cuts and cuts[-1].end != cut.start:  # pieces that do not meet: a connecting move
-                cuts.append(Cut(*cuts[-1].end, *cut.start))
-            if cut.start != cut.end:
+            if last is not None and (last.x1, last.z1) != (cut.x0, cut.z0):  # pieces that do not meet: a connecting move
+                last = Cut(last.x1, last.z1, cut.x0, cut.z0)
+                cuts.append(last)
+            if (cut.x0, cut.z0) != (cut.x1, cut.z1):
                 cuts.append(cut)
+                last = cut
 
+        worst = self.worst
         for index, (move, edit) in enumerate(zip(step.moves, entry.edits)):
             if edit is None:
                 if move.kind == RAPID:
@@ -111,14 +119,18 @@ class Writing:
             add(edit.lead_in)
             if not edit.plans:
                 edit.plans = [self._plan(step, target, edit.held.get(i)) for i, target in enumerate(edit.targets)]
+            spans = edit.spans
             for planned in edit.plans:
-                self.worst = max(self.worst, planned.deviation)
-                add(planned.cuts[0])
+                if planned.deviation > worst:
+                    worst = planned.deviation
+                pieces = planned.cuts
+                add(pieces[0])
                 first = len(cuts) - 1
-                for cut in planned.cuts[1:]:
+                for cut in pieces[1:]:
                     add(cut)
-                edit.spans.append((first, len(cuts)))
+                spans.append((first, len(cuts)))
             add(edit.lead_out)
+        self.worst = worst
         return cuts
 
     def _macro_kept(self, entry: Entry, follower: Entry | None = None) -> bool:
@@ -157,7 +169,10 @@ class Writing:
 
     def _within_limits(self, step: Step, cuts: list[Cut]) -> None:
         """A compensated move must stay inside the machine's soft limits (the profile's)."""
-        for axis, limits, name in ((0, self.profile.x_limits, "x"), (1, self.profile.z_limits, "z")):
+        profile = self.profile
+        if profile.x_limits is None and profile.z_limits is None:
+            return
+        for axis, limits, name in ((0, profile.x_limits, "x"), (1, profile.z_limits, "z")):
             if limits is None:
                 continue
             values = np.concatenate([cut.sample(1.0)[:, axis] for cut in cuts])

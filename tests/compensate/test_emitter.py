@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+import re
+
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from postproc.interpret import gcodes as G
 from postproc.syntax.blocks import Block
-from postproc.compensate.emitter import Style, Writer
+from postproc.compensate.emitter import Style, Writer, _word_text
 from postproc.syntax.fastpath import detail_of_ordinary, read_ordinary
-from postproc.machine.resolution import Grid
+from postproc.machine.resolution import Grid, rounded
 from postproc.compensate.segmenter import Cut
 from support.strategies import canonical_lines
 
@@ -37,3 +39,52 @@ def test_a_canonical_block_is_replaced_as_its_words_say(text, mode, label_last, 
     writer = Writer(Grid(3, False, True), system)
     cuts = list(CUTS[:count])
     assert writer.replacement(block, cuts, mode, label_last) == writer.replacement(words, cuts, mode, label_last), text
+
+
+def _number_as_formatted_twice(value: float, decimals: int, trim: bool, leading_zero: bool) -> str:
+    """How a number was spelled before it was spelled by one format: formatted, a zero's minus
+    dropped, trimmed, its leading zero dropped by a regular expression."""
+    text = f"{value:.{decimals}f}"
+    if text.startswith("-") and float(text) == 0.0:
+        text = text[1:]
+    if trim:
+        text = text.rstrip("0")
+    if not leading_zero:
+        text = re.sub(r"^(-?)0\.(?=\d)", r"\1.", text)
+    return text
+
+
+def _words_rounded_then_spelled(grid: Grid, cut: Cut, style: Style, axes: str) -> list[str]:
+    """The geometry words as they were written before: each value rounded onto the grid as a
+    float (``Grid.x_word``), then formatted again."""
+    values = [(letter, word) for letter, word in (("X", grid.x_word(cut.x1)), ("Z", grid.z_word(cut.z1)))
+              if cut.is_arc or letter in axes]
+    if cut.is_arc:
+        values += [("I", grid.offset_word(cut.xc - cut.x0)), ("K", grid.offset_word(cut.zc - cut.z0))]
+    return [style.word(letter, _number_as_formatted_twice(word, grid.decimals, style.trim, style.leading_zero))
+            for letter, word in values]
+
+
+VALUES = st.one_of(st.floats(allow_nan=False, allow_infinity=False, width=64), st.floats(-2000, 2000),
+                   st.integers(-10**7, 10**7).map(lambda n: n / 2000.0), st.sampled_from([0.0, -0.0, 5e-4, -5e-4]))
+
+
+@settings(max_examples=2000, deadline=None)
+@given(VALUES, st.integers(0, 8), st.booleans(), st.booleans())
+def test_a_number_is_spelled_by_one_format_as_by_two(value, decimals, trim, leading_zero):
+    style = Style(trim=trim, leading_zero=leading_zero)
+    assert style.number(value, decimals) == _number_as_formatted_twice(value, decimals, trim, leading_zero)
+    rounded_first = rounded(value, decimals) + 0.0
+    assert _word_text(value, decimals, trim, leading_zero) == style.number(rounded_first, decimals)
+
+
+@settings(max_examples=1000, deadline=None)
+@given(st.lists(VALUES, min_size=6, max_size=6), st.booleans(), st.booleans(), st.booleans(), st.integers(1, 6),
+       st.booleans(), st.booleans(), st.booleans(), st.sampled_from(["XZ", "X", "Z"]))
+def test_geometry_words_are_the_grid_words_of_the_cut(values, arc, cw, rapid, decimals, inch, diameter, lower, axes):
+    x0, z0, x1, z1, xc, zc = values
+    cut = Cut(x0, z0, x1, z1, xc, zc, cw) if arc else Cut(x0, z0, x1, z1, rapid=rapid)
+    grid = Grid(decimals, inch, diameter)
+    for style in (Style(lower=lower), Style(lower=lower, trim=False, leading_zero=False)):
+        writer = Writer(grid, "A", True, axes)
+        assert writer.geometry_words(cut, style) == _words_rounded_then_spelled(grid, cut, style, axes)
