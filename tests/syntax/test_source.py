@@ -45,3 +45,12 @@ def test_a_subprogram_called_from_two_places_is_not_compensated():
         steps = list(interpret_source(source, reporter=reporter))
     assert any("O2000 is called from 2 places" in str(w) for w in reporter.warnings)
     assert all(step.shared for step in steps if step.block.line == 14)
+
+
+def test_m99_p_targets_are_jump_targets_whatever_the_spacing():
+    text = "N100 G01 W-1.\nM99 P100\nm 0 99 p 2 00\nM99P#3\nM990 P300\nG99 P400\nM99 (BACK) P600\n"
+    with Source.from_text(text, "t.nc") as source:
+        labels = source.labels
+        assert labels.goto_targets == {100, 200, 600}
+        assert labels.computed_goto  # M99 P#3: any label may be the target
+        assert labels.calls == {}
