@@ -229,6 +229,17 @@ def test_jump_targets_forget_what_only_one_path_knew():
     assert result[1].x1 is None and result[1].x0 is None
 
 
+@pytest.mark.parametrize("flow", ["M98 P2000", "G65 P9000 A1.", "M99", "M99 P100"])
+def test_after_a_call_or_a_return_the_motion_mode_is_not_assumed(flow):
+    """The subprogram may leave G00 where the caller had G01 (and M99 in a main program loops back
+    with whatever mode the last pass left): a block that relies on the mode is not interpreted."""
+    reporter = Reporter()
+    result = steps("G18 G21 G99\nG00 X20. Z2.\nG01 Z0. F0.1\n" + flow + "\nX30. Z-5.\nG01 X40. Z-10.\n", reporter)
+    after, explicit = result[-2:]
+    assert not after.interpreted and explicit.interpreted and explicit.moves[0].kind == "line"
+    assert any(":5:1: warning: block cannot be interpreted: the motion mode" in str(w) for w in reporter.warnings)
+
+
 def test_subprogram_call_and_block_delete_warn():
     reporter = Reporter()
     result = moves(START + "M98 P1000\nG01 W-1.\n/G01 X10.\nG00 X50. Z5.\n", reporter)
