@@ -31,6 +31,7 @@ from ..files import inputs
 from . import models, progress
 from ..interpret import gcodes as G
 from . import registry
+from .lead import Lead
 from .compensator import Compensator, Context, Measurements, check_options, parse_options
 from ..diagnostics import (InternalError, Location, ModelError, PluginError, PostprocError, Reporter, SafetyError,
                            UsageError)
@@ -167,7 +168,7 @@ class Pipeline:
         region = Region(self.request.regions, source.labels if self.request.regions else None, source.name)
         rewriter = Rewriter(steps, self._corrector(), self.profile, self.request, self.reporter, source.name,
                             selects=region)
-        lead: list[str] = []  # the tape mark and program number go before the provenance block
+        lead = Lead()  # the tape mark and program number go before the provenance block
         written = 0  # blocks written: one per source line up to the anchor, none of them replaced
         with tempfile.SpooledTemporaryFile(max_size=1 << 20) as body:
             total = progress.lines(source) if progress.shown() else 0  # counted only for a line on a terminal
@@ -176,8 +177,7 @@ class Pipeline:
                     written += 1
                     if not written % progress.EVERY:
                         shown.advance(progress.EVERY)
-                    if body.tell() == 0 and _is_program_start(text) and len(lead) < 8:
-                        lead.append(text)
+                    if body.tell() == 0 and lead.takes(text):
                         continue
                     body.write(text.encode("utf-8", "surrogateescape"))
                     if opening and written == anchor.block.line:
@@ -187,7 +187,7 @@ class Pipeline:
                         body.write("".join(line + anchor.block.eol for _, line in opening).encode())
             for compensator in self.compensators:
                 self._guarded(compensator, "finish", compensator.finish, model=self.request.model)
-            spool.write("".join(lead).encode("utf-8", "surrogateescape"))
+            spool.write("".join(lead.lines).encode("utf-8", "surrogateescape"))
             if region.ranges and not region.matched and not opening:  # nothing done is said, and not marked as done
                 self.reporter.warn(f"--region {' '.join(self.request.regions)} selects no block that could be "
                                    "compensated: the program is written back unchanged and not marked COMPENSATED",
@@ -452,11 +452,6 @@ def _numbered_lines(numbered: list[int], shown: int = 10) -> list[str]:
 
 def _safe(text: str) -> str:
     return _SAFE.sub("_", text.upper())[:60]
-
-
-def _is_program_start(text: str) -> bool:
-    stripped = text.strip().lstrip("\ufeff")  # a byte order mark before the tape mark
-    return stripped == "" or stripped.startswith("%") or stripped[:1] in ("O", "o", "<", ":")
 
 
 def _eol(text: str) -> str:

@@ -126,9 +126,7 @@ class MotionAndArcs:
                 key = G.motion_code(self.profile.gcode_system, meaning)  # modal: the code in force
             if key is not None:
                 what = f"{G.code_name(key)}: {what}"
-        col = self._col(block, "F")
-        raise InterpretationError(f"{what} (FANUC alarm PS0011)",
-                                  self._location(block, self._first_col(block) if col is None else col))
+        raise InterpretationError(f"{what} (FANUC alarm PS0011)", self._location(block, self._col(block, "F")))
 
     def _arc(self, block: Block, values: dict[str, float], cw: bool, x1, z1) -> Step:
         xc, zc = self._arc_centre(block, values, cw, x1, z1)

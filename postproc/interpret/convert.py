@@ -327,15 +327,11 @@ class WordConversion:
             self._after_call()
             return step
         step = self._motion(block, words) if self._has_axis(words) else Step(block, (), self.modal)
-        if 99 in words.m:
-            self.x = self.z = None
-            self.variables = {}
-        else:  # M30, M02: the program ends; what follows is another program (a local subprogram)
-            self.x = self.z = None
-            self.variables = {}
-            self.modal = replace(self.modal, motion=None)
+        # M99 returns to a caller (or jumps back in a main program), M30 and M02 end the program:
+        # what follows is reached from elsewhere, or is another program (a local subprogram).
+        self._forget()
         return step
 
     def _after_call(self) -> None:
-        self.x = self.z = None
-        self.variables = {}
+        """The subprogram or macro ran moves of its own and may leave another motion mode."""
+        self._forget()

@@ -379,18 +379,20 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
             self._jumps = bool(self.labels.goto_targets) or self.labels.computed_goto
         return self._jumps and (label in self.labels.goto_targets or self.labels.computed_goto)
 
-    def _location(self, block: Block | CanonicalLine, col: int | None) -> Location:
-        return Location(self.file, block.line, None if col is None else col + 1, block.text)
+    def _location(self, block: Block | CanonicalLine, col: int) -> Location:
+        return Location(self.file, block.line, col + 1, block.text)
 
-    @staticmethod
-    def _col(block: Block | CanonicalLine, letter: str, occurrence: int = 1) -> int | None:
+    @classmethod
+    def _col(cls, block: Block | CanonicalLine, letter: str, occurrence: int = 1) -> int:
+        """Where the word a message is about stands; a word the block lacks (a G02 in force
+        from an earlier block, a missing R) is placed at the block's first word."""
         seen = 0
         for word in block.words:
             if word.letter == letter:
                 seen += 1
                 if seen == occurrence:
                     return word.col
-        return None
+        return cls._first_col(block)
 
     @staticmethod
     def _first_col(block: Block) -> int:

@@ -28,6 +28,15 @@ _LABEL = re.compile(rb"(?m)^[ \t]*(?:/[1-9]?[ \t]*)?[Nn][ \t]*(\d+)")
 # Searched in lower-cased text, each starting with a literal: an alternation or a
 # case-blind pattern would be tried at every G of the program.
 _GOTO = re.compile(rb"goto[ \t]*(\d+|[#\[])")
+# M99 Pn returns to (in a main program: jumps to) the block with sequence number n; the
+# interpreter follows neither that jump nor a call, so such a block is a jump target like a
+# GOTO's.
+# M98 Pp Qn (M198 too) calls the subprogram from its block Nn, and with no P the block Nn of
+# the program itself: that block is entered from the call. A comment between the M code and
+# the P or Q is no word of the block: the P or Q after it is still the target.
+_BETWEEN = rb"(?![ \t]*\d)(?:[^\r\n(]|\([^\r\n)]*\))*?"
+_RETURN = re.compile(rb"m[ \t]*(?:0[ \t]*)*9[ \t]*9" + _BETWEEN + rb"p[ \t]*(\d[\d \t]*|[#\[])")
+_ENTRY = re.compile(rb"m[ \t]*(?:0[ \t]*)*(?:1[ \t]*)?9[ \t]*8" + _BETWEEN + rb"q[ \t]*(\d[\d \t]*|[#\[])")
 # The control ignores spaces, even inside a number: ``M 0 98 P 3 1000`` calls O1000 three times.
 _CALLS = tuple(
     re.compile(rb"%s[ \t]*(?:0[ \t]*)*%s[ \t]*%s(?![ \t]*\d)[^\r\n(]*?p[ \t]*(\d[\d \t]*)" % code)
@@ -36,7 +45,7 @@ _CALLS = tuple(
 
 
 class LabelIndex:
-    """Which labels a GOTO may jump to, which programs are called from where, and (scanned
+    """Which labels control may jump to (a GOTO's, an M99 P's, an M98 Q's), which programs are called from where, and (scanned
     only when a cycle asks) where each sequence number stands."""
 
     def __init__(self, goto_targets=None, computed_goto: bool = False, calls=None, scan=None):
@@ -169,7 +178,7 @@ class Source:
 
     @cached_property
     def labels(self) -> LabelIndex:
-        """GOTO targets and subprogram calls, found by a quick scan; label places on demand."""
+        """Jump targets (GOTO n, M99 Pn, M98 Qn) and subprogram calls, found by a quick scan; label places on demand."""
         targets: set[int] = set()
         calls: dict[int, int] = {}
         computed = False
@@ -180,12 +189,13 @@ class Source:
                 number = int(spelled.replace(b" ", b"").replace(b"\t", b""))
                 number = number % 10000 if number > 9999 else number  # M98 P31234: 3 times O1234
                 calls[number] = calls.get(number, 0) + 1
-            for match in _GOTO.finditer(chunk):
-                target = match.group(1)
-                if target.isdigit():
-                    targets.add(int(target))
-                else:
-                    computed = True
+            for pattern in (_GOTO, _RETURN, _ENTRY):
+                for match in pattern.finditer(chunk):
+                    target = match.group(1).replace(b" ", b"").replace(b"\t", b"")
+                    if target.isdigit():
+                        targets.add(int(target))
+                    else:
+                        computed = True
         return LabelIndex(targets, computed, calls, scan=self._label_places)
 
     def _label_places(self) -> tuple[dict[int, list[int]], dict[int, int]]:

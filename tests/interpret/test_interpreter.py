@@ -7,7 +7,7 @@ import math
 import pytest
 
 from support.interpret import geometry, moves, steps
-from postproc.diagnostics import InterpretationError, Reporter
+from postproc.diagnostics import InterpretationError, Reporter, format_message
 
 START = "G18 G21 G99 F0.2\nG00 X100. Z10.\n"
 
@@ -229,6 +229,17 @@ def test_jump_targets_forget_what_only_one_path_knew():
     assert result[1].x1 is None and result[1].x0 is None
 
 
+@pytest.mark.parametrize("flow", ["M98 P2000", "G65 P9000 A1.", "M99", "M99 P100"])
+def test_after_a_call_or_a_return_the_motion_mode_is_not_assumed(flow):
+    """The subprogram may leave G00 where the caller had G01 (and M99 in a main program loops back
+    with whatever mode the last pass left): a block that relies on the mode is not interpreted."""
+    reporter = Reporter()
+    result = steps("G18 G21 G99\nG00 X20. Z2.\nG01 Z0. F0.1\n" + flow + "\nX30. Z-5.\nG01 X40. Z-10.\n", reporter)
+    after, explicit = result[-2:]
+    assert not after.interpreted and explicit.interpreted and explicit.moves[0].kind == "line"
+    assert any(":5:1: warning: block cannot be interpreted: the motion mode" in str(w) for w in reporter.warnings)
+
+
 def test_subprogram_call_and_block_delete_warn():
     reporter = Reporter()
     result = moves(START + "M98 P1000\nG01 W-1.\n/G01 X10.\nG00 X50. Z5.\n", reporter)
@@ -316,3 +327,22 @@ def test_the_plain_number_warning_names_the_literal_when_the_address_is_also_an_
     moves(START + "Z-#1 Z1\n", reporter=reporter)
     warned = [w for w in reporter.warnings if "has no decimal point" in w.message]
     assert len(warned) == 1 and warned[0].message.startswith("Z1 has no decimal point")
+
+
+@pytest.mark.parametrize("program, where", [
+    ("G00 X20. Z5.\nG01 Z0. F0.1\nG02 X40. Z-10. R10.\nZ-20.\n", (4, 1)),  # G02 in force, no R or I/K
+    ("G00 X20. Z5.\nG01 Z0. F0.1\nG03 X40. Z-10.\n", (3, 1)),  # at the motion word the alarm is about
+    ("G00 X20. Z5.\nG01 Z0. F0.1\n  G02 Z0. K0.\n", (3, 3)),  # I and K both zero, no I written
+    ("G00 X20. Z5.\nG01 Z0. F0.1\nF0.\nX30.\n", (4, 1)),  # F0 in force
+    ("G00 X20. Z5.\nG70 P10\n", (2, 1)),  # G70 without Q
+    ("G00 X20. Z5.\nG01 X30. ,C1. F0.1\nG00 X40.\n", (2, None)),  # a corner with no feed move after it
+    ("G00 X20. Z5.\n#1=[1/0]\n", (2, 1)),  # a macro expression the control refuses
+])
+def test_every_interpretation_error_has_a_column_and_a_caret(program, where):
+    with pytest.raises(InterpretationError) as caught:
+        steps("G18 G21 G99\n" + program)
+    location, (line, col) = caught.value.location, where
+    assert location.line == line + 1 and location.col is not None and col in (None, location.col)
+    shown = format_message("error", caught.value.message, location).splitlines()
+    assert shown[0].startswith(f"t.nc:{line + 1}:{location.col}: error: ")
+    assert shown[1] == "    " + program.splitlines()[line - 1] and shown[2] == "    " + " " * (location.col - 1) + "^"

@@ -82,3 +82,53 @@ def run_on_control(text: str, latched: list, padded: bool = True, eol: str = "\r
                 else:
                     lines.append(dprnt(statement.text, variables, padded))
     return eol.join(lines) + eol
+
+
+_FLOW = re.compile(r"^(?:N(?P<label>\d+)\s*)?(?:"
+                   r"#(?P<var>\d+)=(?P<value>.+)"
+                   r"|IF\[#(?P<test>\d+)(?P<op>LT|GE)(?P<limit>\d+)\]GOTO(?P<branch>\d+)"
+                   r"|GOTO(?P<goto>#?\d+)"
+                   r"|M99P(?P<back>#?\d+)"
+                   r"|WHILE\[#(?P<whiled>\d+)LT(?P<bound>\d+)\]DO(?P<do>\d)"
+                   r"|END(?P<end>\d))$")
+
+
+def executed(text: str, limit: int = 10000) -> str:
+    """The blocks of a main program in the order a control runs them, its jumps taken: GOTO n,
+    GOTO #v, IF [#v LT|GE n] GOTO n, M99 Pn / P#v (in a main program: a jump to block n), WHILE
+    [#v LT n] DO m ... END m, and #v = #w + k or #v = k. Every other line is copied; the flow
+    statements are left out, so the result is the straight program the machine cuts."""
+    lines = text.splitlines()
+    labels = {int(m.group(1)): i for i, line in enumerate(lines) if (m := re.match(r"N(\d+)", line))}
+    variables: dict[int, float] = {}
+    out: list[str] = []
+    pc = 0
+
+    def value(word: str) -> int:
+        return int(variables[int(word[1:])]) if word.startswith("#") else int(word)
+
+    while pc < len(lines):
+        limit -= 1
+        if limit < 0:
+            raise Alarm("the program does not end")
+        line = lines[pc]
+        match = _FLOW.match(line.replace(" ", ""))
+        pc += 1
+        if match is None:
+            out.append(line)
+        elif match["var"]:
+            target, _, step = match["value"].partition("+")
+            variables[int(match["var"])] = (variables.get(int(target[1:]), 0.0) if target.startswith("#")
+                                            else float(target)) + (float(step) if step else 0.0)
+        elif match["test"]:
+            current = variables.get(int(match["test"]), 0.0)
+            if (current < int(match["limit"])) == (match["op"] == "LT"):
+                pc = labels[int(match["branch"])]
+        elif match["goto"] or match["back"]:
+            pc = labels[value(match["goto"] or match["back"])]
+        elif match["whiled"]:
+            if not variables.get(int(match["whiled"]), 0.0) < int(match["bound"]):
+                pc = next(i for i in range(pc, len(lines)) if lines[i].replace(" ", "") == f"END{match['do']}") + 1
+        elif match["end"]:
+            pc = next(i for i in range(pc - 1, -1, -1) if lines[i].replace(" ", "").endswith(f"DO{match['end']}"))
+    return "\n".join(out) + "\n"

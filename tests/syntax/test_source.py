@@ -45,3 +45,13 @@ def test_a_subprogram_called_from_two_places_is_not_compensated():
         steps = list(interpret_source(source, reporter=reporter))
     assert any("O2000 is called from 2 places" in str(w) for w in reporter.warnings)
     assert all(step.shared for step in steps if step.block.line == 14)
+
+
+def test_m99_p_and_m98_q_targets_are_jump_targets_whatever_the_spacing():
+    text = ("N100 G01 W-1.\nM99 P100\nm 0 99 p 2 00\nM99P#3\nM990 P300\nG99 P400\nM99 (BACK) P600\n"
+            "M98 Q700\nM98 P2000 Q800\nM198 P3000 Q900\nG65 P9000 Q1.\nM980 Q1000\n")
+    with Source.from_text(text, "t.nc") as source:
+        labels = source.labels
+        assert labels.goto_targets == {100, 200, 600, 700, 800, 900}
+        assert labels.computed_goto  # M99 P#3: any label may be the target
+        assert labels.calls == {2000: 1, 9000: 1}
