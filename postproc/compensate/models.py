@@ -162,12 +162,15 @@ def _check(data: dict[str, Any], where: Location) -> None:
         if value is not None and not isinstance(value, (str, int, float, bool)):
             raise ModelError(f"options.{name} must be a number, a string or true/false", where)
     _values(data["options"], "options", 1, where)
-    _values(data["model"], "model", 1, where)
+    _values(data["model"], "model", 1, where, numbers_only=True)
     _time(data["measured"], "measured", where)
 
 
-def _values(value: Any, name: str, depth: int, where: Location) -> None:
-    """Every number finite and plausible, every radius positive, nothing nested too deeply."""
+def _values(value: Any, name: str, depth: int, where: Location, numbers_only: bool = False) -> None:
+    """Every number finite and plausible, every radius positive, nothing nested too deeply.
+    ``numbers_only`` (a compensator's fitted model, which holds numbers, file names and
+    directions): true/false and a number written as a string are refused, for a reader's
+    ``float()`` would take them as 1.0 or as the number (a hand edit that passes the hash)."""
     if depth > MAX_DEPTH:
         raise ModelError(f"not a postproc model (nested deeper than {MAX_DEPTH} levels)", where)
     if isinstance(value, dict):
@@ -175,14 +178,30 @@ def _values(value: Any, name: str, depth: int, where: Location) -> None:
             path = f"{name}.{key}"
             if "radius" in key and isinstance(item, (int, float)) and not isinstance(item, bool) and not item > 0:
                 raise ModelError(f"{path} = {item}: a radius must be positive", where)
-            _values(item, path, depth + 1, where)
+            _values(item, path, depth + 1, where, numbers_only)
     elif isinstance(value, list):
         for index, item in enumerate(value):
-            _values(item, f"{name}[{index}]", depth + 1, where)
+            _values(item, f"{name}[{index}]", depth + 1, where, numbers_only)
+    elif isinstance(value, bool):
+        if numbers_only:
+            raise ModelError(f"{name} = {json.dumps(value)}: a fitted model holds numbers, not true/false; the model "
+                             "was edited: fit it again from its measurements", where)
     elif isinstance(value, float) and not math.isfinite(value):
         raise ModelError(f"{name} = {value}: not a finite number", where)
-    elif isinstance(value, int) and not isinstance(value, bool) and abs(value) > MAX_INTEGER:
+    elif isinstance(value, int) and abs(value) > MAX_INTEGER:
         raise ModelError(f"{name}: an integer of {len(str(abs(value)))} digits is not a plausible value", where)
+    elif numbers_only and isinstance(value, str) and _numeric(value):
+        raise ModelError(f"{name} = {json.dumps(value)}: a number written as a string (in quotes); a fitted model "
+                         "holds JSON numbers: the model was edited: fit it again from its measurements", where)
+
+
+def _numeric(text: str) -> bool:
+    """Whether ``float()`` would read the string as a number (``"0.1"``, ``" 4e-6"``, ``"nan"``)."""
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _time(text: str, name: str, where: Location) -> dt.datetime:

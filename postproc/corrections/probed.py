@@ -26,7 +26,8 @@ from ..geometry import Profile, segment_of
 from ..measure.readers.probe import ProbeFile
 from ..interpret.motion import CORNER, REPLAY, RUN, Move
 from ..measure.pretravel import fit_calibration
-from ..measure.probing import Deviations, Screened, check_datum, profile_deviations, screen_by_feature, touched_points
+from ..measure.probing import (Deviations, Screened, check_datum, check_on_profile, profile_deviations,
+                               screen_by_feature, touched_points)
 from ..measure.screening import Screening
 
 JOIN = 1e-6  #: mm: a move starting this close to where the previous one ended continues its chain
@@ -177,7 +178,9 @@ class ProbeCompensator(Compensator):
                                    Location(probe.path))
         combined = Profile(tuple(segment for chain in chains for segment in chain.profile.segments))
         owner = np.repeat(np.arange(len(chains)), [len(chain.moves) for chain in chains])
-        which = owner[profile_deviations(points, probe.approach, combined, probe).nearest.index]
+        found = profile_deviations(points, probe.approach, combined, probe)
+        check_on_profile(found, probe, points, combined, abs(self.settings.get("stock") or 0.0))
+        which = owner[found.nearest.index]
         result = []
         for number in np.unique(which):
             chain, index = chains[number], np.nonzero(which == number)[0]

@@ -11,6 +11,7 @@ import math
 from . import gcodes as G
 from .motion import ARC, CONTOUR, LINE, Move, RAPID, RUN, Step, THREAD, move_under
 from ..diagnostics import InterpretationError
+from ..machine.bounds import beyond_travel
 from ..syntax.blocks import Block
 from ..syntax.fastpath import CanonicalLine
 from .state import _CYCLE_KIND, _MOTION_KIND, _Uninterpretable, _Words
@@ -36,9 +37,11 @@ class MotionAndArcs:
             z1 = (None if z1 is None else z1 + z) if z_incremental else z
         return x1, z1
 
-    def _target(self, words: _Words) -> tuple[float | None, float | None]:
+    def _target(self, words: _Words, block: Block) -> tuple[float | None, float | None]:
         """The end point the block's X/Z/U/W words name (radius mm), None where unknown: X and Z
-        in the distance mode in force, U and W incremental."""
+        in the distance mode in force, U and W incremental. An end point beyond the travel any
+        lathe has (or far beyond the profile's soft limits) is refused here, before anything
+        samples the move (:meth:`_beyond_travel`)."""
         values = words.values
         incremental = not self.modal.absolute
         if "X" in values:
@@ -50,11 +53,23 @@ class MotionAndArcs:
         else:
             z, z_incremental = values.get("W"), True
         x, z = self._end_point(x, x_incremental, z, z_incremental)
+        if x is not None and not self._x_travel[0] <= x <= self._x_travel[1]:
+            self._beyond_travel(block, "X" if "X" in values else "U", "x", x)
+        if z is not None and not self._z_travel[0] <= z <= self._z_travel[1]:
+            self._beyond_travel(block, "Z" if "Z" in values else "W", "z", z)
         if "X" in words.unknown or "U" in words.unknown:
             x = None
         if "Z" in words.unknown or "W" in words.unknown:
             z = None
         return x, z
+
+    def _beyond_travel(self, block: Block | CanonicalLine, letter: str, axis: str, value: float) -> None:
+        """Refuse an end point outside the travel (:func:`~postproc.machine.bounds.travel`)."""
+        span = self._x_travel if axis == "x" else self._z_travel
+        word = next((w.text for w in block.words if w.letter == letter), letter)
+        raise InterpretationError(beyond_travel(word, axis, value, span, f"{axis}_limits",
+                                                getattr(self.profile, f"{axis}_limits") is not None),
+                                  self._location(block, self._col(block, letter)))
 
     def _role(self) -> str:
         return CONTOUR if self._capture is not None else RUN
@@ -67,7 +82,7 @@ class MotionAndArcs:
         if motion is None:
             raise _Uninterpretable("the motion mode (G00/G01/G02/G03) is not known here")
         values = words.values
-        x1, z1 = self._target(words)
+        x1, z1 = self._target(words, block)
         unknown = [letter for letter in words.unknown if letter not in "FS"]
         if unknown:
             raise _Uninterpretable(

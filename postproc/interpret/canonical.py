@@ -116,9 +116,13 @@ class CanonicalLines:
         if x is not None:
             x = float(x) * scale * self._diameter
             x1 = (None if x1 is None else x1 + x) if u or not modal.absolute else x
+            if x1 is not None and not self._x_travel[0] <= x1 <= self._x_travel[1]:
+                self._beyond_travel(line, "U" if u else "X", "x", x1)
         if z is not None:
             z = float(z) * scale
             z1 = (None if z1 is None else z1 + z) if w or not modal.absolute else z
+            if z1 is not None and not self._z_travel[0] <= z1 <= self._z_travel[1]:
+                self._beyond_travel(line, "W" if w else "Z", "z", z1)
         if motion >= 20:  # G02, G03
             values = {}
             if i is not None:

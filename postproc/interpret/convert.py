@@ -268,14 +268,14 @@ class WordConversion:
             self.x, self.z = x1, z1
             return Step(block, (move,), self.modal)
         if meaning == G.REF_CHECK:
-            x1, z1 = self._target(words)
+            x1, z1 = self._target(words, block)
             move = self._move(RAPID, block, x1, z1, exact=None not in (x1, z1))
             self.x, self.z = x1, z1
             return Step(block, (move,), self.modal)
         if meaning in (G.SKIP, G.AUTO_OFFSET):
             if meaning == G.SKIP:  # G31 moves at the F in force until the signal (G36, G37: by parameter)
                 self._need_feed(block, words, LINE, meaning)
-            x1, z1 = self._target(words)
+            x1, z1 = self._target(words, block)
             move = self._move(LINE, block, None if x1 != self.x else x1, None if z1 != self.z else z1, exact=False)
             self.x, self.z = move.x1, move.z1
             return Step(block, (move,), self.modal)
@@ -306,7 +306,7 @@ class WordConversion:
         if not named:
             named = ["X", "Z"]  # G28 alone: Haas and most controls send every axis home
         moves = []
-        mid_x, mid_z = self._target(words)
+        mid_x, mid_z = self._target(words, block)
         if (mid_x, mid_z) != (self.x, self.z):
             moves.append(self._move(RAPID, block, mid_x, mid_z, exact=None not in (mid_x, mid_z)))
             self.x, self.z = mid_x, mid_z

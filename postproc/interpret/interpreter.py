@@ -29,6 +29,7 @@ from . import gcodes as G
 from .corners import corner_moves
 from .motion import ARC, CONTOUR, CYCLE, LINE, Modal, Move, RUN, Step
 from ..diagnostics import CornerError, InterpretationError, Location, Reporter, SafetyError
+from ..machine.bounds import travel
 from ..machine.profile import DEFAULT, MachineProfile
 from ..syntax.blocks import BLOCK, Block, HEADER
 from ..syntax.fastpath import CanonicalLine
@@ -68,6 +69,7 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
         self._reread = reread  # callable(first_line, last_line) -> Iterable[Block], for contours placed earlier
         self.table = G.SYSTEMS[profile.gcode_system]
         self._diameter = 0.5 if profile.diameter_x else 1.0  # program X to radius
+        self._x_travel, self._z_travel = travel(profile.x_limits), travel(profile.z_limits)  # end points beyond: refused
         self.x: float | None = None
         self.z: float | None = None
         self.modal = Modal(motion=G.G00, inch=False, absolute=True, per_rev=True)

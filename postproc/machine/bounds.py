@@ -82,3 +82,33 @@ def in_force(tolerance_mm: float | None, max_correction_mm: float | None, profil
 
 def _um(mm: float) -> str:
     return f"{mm * 1000:g}"
+
+
+MAX_TRAVEL = 10_000.0  #: mm; no lathe's axis reaches further from its work origin
+
+
+def travel(limits: tuple[float, float] | None) -> tuple[float, float]:
+    """The span (mm, work coordinates) an interpreted end point must lie in. A coordinate
+    beyond it is a typing mistake, not a part: inches read as millimetres, a missing decimal
+    point (``X50000`` for ``X50.000``), a digit too many. Without soft limits in the profile,
+    :data:`MAX_TRAVEL` either side of the origin; with them, the limits widened by their own
+    span, so a machine longer than :data:`MAX_TRAVEL` states its limits and is not refused
+    while a move beyond its whole travel still is. Checked once per interpreted end point,
+    before anything samples the move, whose cost grows with its length."""
+    if limits is None:
+        return -MAX_TRAVEL, MAX_TRAVEL
+    span = limits[1] - limits[0]
+    return limits[0] - span, limits[1] + span
+
+
+def beyond_travel(word: str, axis: str, value: float, span: tuple[float, float], limits_key: str,
+                  stated: bool) -> str:
+    """The message refusing an end point outside :func:`travel`'s span (``stated``: the span
+    comes from the profile's soft limits)."""
+    where = (f"far beyond the machine profile's {limits_key} (an end point must lie in {span[0]:g} .. {span[1]:g} mm)"
+             if stated else f"beyond the travel of any lathe ({span[0]:g} .. {span[1]:g} mm in work coordinates)")
+    remedy = (f"correct the coordinate, or {limits_key} if the machine travels further" if stated else
+              f"correct the coordinate; a machine that travels further states it with {limits_key} in the machine "
+              f"profile")
+    return (f"{word} puts {axis} at {value:g} mm, {where}: inches read as millimetres, a missing decimal point or a "
+            f"digit too many? {remedy[0].upper()}{remedy[1:]}")

@@ -24,7 +24,8 @@ import numpy as np
 from ..diagnostics import Location, MeasurementError, Reporter, SafetyError
 from .features import Feature, features, owners
 from ..geometry import Nearest, Profile, as_points
-from .readers.probe import ProbeFile, Touches
+from ..machine.bounds import MAX_CORRECTION
+from .readers.probe import ProbeFile, Touches, likely_cause
 from .pretravel import CalibrationModel
 from .screening import Screening, screen
 
@@ -85,6 +86,33 @@ class Deviations:
     nearest: Nearest  #: segment, parameter, foot, distance and arc length ``s`` of each point
     outward: np.ndarray  #: (n, 2) unit normal of the profile at the foot, out of the material
     deviation: np.ndarray  #: mm along ``outward``; positive = material left where the nominal says air
+
+
+def check_on_profile(deviations: Deviations, touches: Touches, touched: np.ndarray, profile: Profile,
+                     allowance: float) -> None:
+    """Refuse touches that lie further from the nominal profile than any correction reaches
+    (:data:`~postproc.machine.bounds.MAX_CORRECTION`) plus ``allowance`` (the stock an earlier pass
+    left): the file does not describe this profile. One error at the furthest touch's row, with
+    the likely cause (:func:`~postproc.measure.readers.probe.likely_cause`: micrometres written as
+    millimetres, x written as a diameter, another part or set-up), for compensating from such
+    points would move the tool by millimetres."""
+    limit = MAX_CORRECTION + allowance
+    off = np.abs(deviations.deviation)
+    worst = int(np.argmax(off))
+    if not off[worst] > limit:
+        return
+    reach = touched - touches.centres  # stylus radius and pretravel along each approach
+
+    def fits(centres: np.ndarray) -> bool:
+        try:
+            again = profile_deviations(centres + reach, touches.approach, profile)
+        except MeasurementError:
+            return False
+        return bool(np.all(np.abs(again.deviation) <= limit))
+
+    cause = likely_cause(touches.centres, fits, "a file of another part, another program or another work offset?")
+    raise MeasurementError(f"this touch lies {deviations.deviation[worst]:+.4f} mm from the program's nominal profile, "
+                           f"beyond the {limit:g} mm any correction reaches: {cause}", touches.where(worst))
 
 
 def profile_deviations(points, approach, profile: Profile, touches: Touches | None = None) -> Deviations:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from support import SAMPLES
 from support.corpus import corpus
 
 HEMISHELL = b"%\nO1000 (HEMISHELL)\nG18 G21 G99\nT0101\nG00 X0. Z60.\nG01 Z57.15 F0.1\nG03 X114.3 Z0. I0. K-57.15\nG00 X150.\nM30\n%\n"
@@ -333,3 +334,20 @@ def test_quiet_keeps_the_terminal_to_errors_and_the_log_gets_what_it_would_get(r
     assert quiet_log.read_text() == loud.stderr  # the log: all of it, quiet or not
     errors = [line for line in loud.stderr.splitlines(keepends=True) if ": error: " in line]
     assert quiet.stderr == "".join(errors)  # the terminal: the errors alone
+
+
+@pytest.mark.parametrize("command", ["check", "path", "compensate"])
+@pytest.mark.parametrize("word", ["X99999999.", "X2000000.", "Z-20000.", "U50000."])
+def test_a_coordinate_beyond_any_lathes_travel_is_one_error_at_its_word(run, tmp_path, command, word):
+    program = tmp_path / "huge.nc"
+    program.write_text(f"%\nO1000\nG18 G21 G99\nT0101\nG00 X60. Z5.\nG01 Z0. F0.1\nG01 {word} F0.1\nM30\n%\n")
+    target = tmp_path / "out.nc"
+    measured = (["--plugin", "parametric", "--ballbar", str(SAMPLES / "ballbar" / "v40r-100-ccw.csv"), "--ballbar",
+                 str(SAMPLES / "ballbar" / "v40r-100-cw.csv"), "-o", str(target)] if command == "compensate" else [])
+    result = run(command, str(program), *measured)
+    assert result.exit_code == 3 and result.stdout == ""
+    first, source, caret = result.stderr.splitlines()[:3]
+    assert first.startswith(f"{program}:7:5: error: {word} puts ")
+    assert "beyond the travel of any lathe" in first and "missing decimal point" in first and "_limits" in first
+    assert source.strip() == f"G01 {word} F0.1" and caret.strip() == "^"
+    assert result.stderr.count("error:") == 1 and not target.exists()

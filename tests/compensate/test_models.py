@@ -2,8 +2,17 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
+import uuid
 
+import pytest
+from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings, strategies as st
+
+from postproc.cli.main import main
+from postproc.compensate import models
+from postproc.measure.ballbar_analysis import BOUNDS
 from support import SAMPLES
 
 HEMISHELL = str(SAMPLES / "programs" / "hemishell.nc")
@@ -105,8 +114,8 @@ def test_a_parametric_model_beyond_what_traces_may_read_is_refused(run, tmp_path
     model = tmp_path / "model.json"
     assert run("fit", "--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW, "-o", str(model)).exit_code == 0
     saved = json.loads(model.read_text())
-    for name, value, said in (("backlash_x", 0.08, "backlash_x is +80.0 um, beyond the 50 um"),
-                              ("scaling_x_plus", -0.0009, "scaling_x_plus is -900.0 ppm, beyond the 500 ppm")):
+    for name, value, said in (("backlash_x", 0.08, "backlash_x +80.0 um is beyond -10 .. +50 um"),
+                              ("scaling_x_plus", -0.0009, "scaling_x_plus -900.0 ppm is beyond -500 .. +500 ppm")):
         data = json.loads(json.dumps(saved))
         data.pop("sha256")
         data["model"]["parameters"][name][0] = value
@@ -189,3 +198,83 @@ def test_a_model_saved_without_the_profile_sha256_is_compared_by_name(run, tmp_p
     result = run("compensate", HEMISHELL, "--model", str(model))
     assert result.exit_code == 3 and result.stdout == ""
     assert result.stderr == (f"{model}: error: 'machine_profile_sha256' must be 64 hex digits (lower case)\n")
+
+
+def _leaves(value, path=()):
+    """Every number of a fitted model, by its path of keys and indices."""
+    if isinstance(value, dict):
+        for key, item in value.items():
+            yield from _leaves(item, (*path, key))
+    elif isinstance(value, list):
+        for index, item in enumerate(value):
+            yield from _leaves(item, (*path, index))
+    elif isinstance(value, (int, float)) and not isinstance(value, bool):
+        yield path
+
+
+def _named(path) -> str:
+    return "model" + "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in path)
+
+
+@pytest.fixture(scope="module")
+def parametric_model(tmp_path_factory):
+    path = tmp_path_factory.mktemp("parametric") / "model.json"
+    fitted = CliRunner().invoke(main, ["fit", "--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW, "-o",
+                                       str(path)], catch_exceptions=False)
+    assert fitted.exit_code == 0, fitted.stderr
+    return path
+
+
+def _edited(model, path, value):
+    """The model with one value replaced and its SHA-256 made again, as an editor by hand would."""
+    data = json.loads(model.read_text())
+    *parents, last = path
+    holder = data["model"]
+    for key in parents:
+        holder = holder[key]
+    holder[last] = value
+    payload = {key: item for key, item in data.items() if key != "sha256"}
+    data["sha256"] = hashlib.sha256(models._canonical(payload)).hexdigest()
+    edited = model.parent / f"edited-{uuid.uuid4().hex}.json"
+    edited.write_text(json.dumps(data))
+    return edited
+
+
+def _refused(edited):
+    result = CliRunner().invoke(main, ["compensate", HEMISHELL, "--model", str(edited)], catch_exceptions=False)
+    assert result.exit_code == 3 and result.stdout == "", result.stderr
+    assert result.stderr.startswith(f"{edited}: error: ") and result.stderr.count("error:") == 1
+    return result.stderr
+
+
+@settings(max_examples=40, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_every_number_of_a_saved_model_must_be_a_json_number(parametric_model, data):
+    path = data.draw(st.sampled_from(sorted(_leaves(json.loads(parametric_model.read_text())["model"]), key=str)))
+    original = json.loads(parametric_model.read_text())["model"]
+    for key in path:
+        original = original[key]
+    wrong = data.draw(st.sampled_from([True, False, str(original), f" {original!r} ", "nan", "1e400"]))
+    stderr = _refused(_edited(parametric_model, path, wrong))
+    assert f"{_named(path)} = {json.dumps(wrong)}" in stderr and "fit it again" in stderr
+
+
+@settings(max_examples=40, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(name=st.sampled_from(["scaling_x_plus", "scaling_x_minus", "scaling_z_plus", "scaling_z_minus", "backlash_x",
+                             "backlash_z", "squareness", "servo_mismatch"]),
+       beyond=st.floats(1.001, 1e6), sign=st.sampled_from([1.0, -1.0]))
+def test_a_saved_parameter_beyond_its_bound_is_refused(parametric_model, name, beyond, sign):
+    low, high = BOUNDS[next(prefix for prefix in BOUNDS if name.startswith(prefix))][:2]
+    value = (high if sign > 0 else low) * beyond
+    stderr = _refused(_edited(parametric_model, ("parameters", name, 0), value))
+    assert f"the saved model's {name} " in stderr and "is beyond" in stderr and "fit it again" in stderr
+
+
+@pytest.mark.parametrize("name, value", [("scaling_x_plus", 499e-6), ("backlash_x", -0.0099), ("backlash_z", 0.0499),
+                                         ("squareness", -499e-6), ("servo_mismatch", 0.099)])
+def test_a_saved_parameter_within_its_bound_is_applied(parametric_model, name, value):
+    edited = _edited(parametric_model, ("parameters", name, 0), value)
+    result = CliRunner().invoke(main, ["compensate", HEMISHELL, "--model", str(edited), "--max-correction", "1"],
+                                catch_exceptions=False)
+    assert result.exit_code in (0, 4), result.stderr  # 4: a correction the run refuses, not the model
+    assert "the saved model" not in result.stderr

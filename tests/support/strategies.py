@@ -16,11 +16,11 @@ EOL = st.sampled_from(["\n", "\n", "\r\n", "\r\n", "\r"])
 
 
 @st.composite
-def numbers(draw, signed: bool = True) -> str:
+def numbers(draw, signed: bool = True, digits: int = 5) -> str:
     """``10``, ``10.``, ``.5``, ``-0.42928932``, ``+1.``: every spelling FANUC reads (at most
-    nine digits, the control's limit)."""
+    nine digits, the control's limit; at most ``digits`` before the point)."""
     sign = draw(st.sampled_from(["", "", "-", "+"])) if signed else ""
-    whole = draw(st.text("0123456789", min_size=0, max_size=5))
+    whole = draw(st.text("0123456789", min_size=0, max_size=digits))
     point = draw(st.booleans())
     fraction = draw(st.text("0123456789", min_size=0, max_size=9 - len(whole))) if point else ""
     if not whole and not fraction:
@@ -160,8 +160,9 @@ def lathe_blocks(draw) -> str:
     if kind == 0:
         parts.append(draw(st.sampled_from(["G00", "G0", "g00", "G01", "G1"])) + draw(SPACE))
         axes = draw(st.sampled_from(["X", "Z", "XZ", "U", "W", "UW", "XW", "UZ"]))
-        for axis in axes:
-            parts.append(f"{_case(draw, axis)}{draw(SPACE)}{draw(numbers())}{draw(SPACE)}")
+        for axis in axes:  # within a lathe's travel (machine.bounds.MAX_TRAVEL), 25 increments too
+            number = numbers(digits=3 if axis in "XZ" else 2)
+            parts.append(f"{_case(draw, axis)}{draw(SPACE)}{draw(number)}{draw(SPACE)}")
         if draw(st.booleans()):
             parts.append(f"F{draw(st.sampled_from(['0.2', '.15', '100', '0.008']))}")
     elif kind == 1:
@@ -174,7 +175,7 @@ def lathe_blocks(draw) -> str:
     elif kind == 4:
         parts.append("")
     else:
-        parts.append(f"G01 X{draw(numbers(signed=False))} Z{draw(numbers())} F0.2")
+        parts.append(f"G01 X{draw(numbers(signed=False, digits=3))} Z{draw(numbers(digits=3))} F0.2")
     if draw(st.integers(0, 3)) == 0:
         parts.append(draw(ends()))
     elif draw(st.integers(0, 3)) == 0:

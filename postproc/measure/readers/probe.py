@@ -25,6 +25,22 @@ PROBE_KEYS = {"stylus_radius_mm", "datum_before_x_mm", "datum_before_z_mm", "dat
               "repeatability_mm"}
 CALIBRATION_KEYS = {"stylus_radius_mm", "artifact_radius_mm", "artifact_center_x_mm", "artifact_center_z_mm"}
 UNIT_TOLERANCE = 0.001
+#: (what the file's centres become, the likely cause) tried when touches lie far off what was probed
+MISREADINGS = (
+    (lambda centres: centres / 1000.0, "micrometres written as millimetres? (the coordinates divided by 1000 fit)"),
+    (lambda centres: centres * np.array([0.5, 1.0]), "x written as a diameter? (x is a radius, as in `postproc path`; "
+                                                     "halved, it fits)"),
+)
+
+
+def likely_cause(centres: np.ndarray, fits, otherwise: str) -> str:
+    """Why touches lie far off what was probed: the first of :data:`MISREADINGS` under which
+    ``fits(centres)`` holds, else ``otherwise``. Asked only once touches are found off, so it
+    costs nothing on a good file."""
+    for misread, cause in MISREADINGS:
+        if fits(misread(centres)):
+            return cause
+    return otherwise
 
 
 def approach_theta(approach: np.ndarray) -> np.ndarray:
@@ -83,6 +99,12 @@ def _touches(table: Table) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
     for line, length in zip(lines, lengths):
         if abs(length - 1.0) > UNIT_TOLERANCE:
             raise table.error(f"the approach vector has length {length:.6f}; it must be a unit vector (within 0.001)", line)
+    seen: dict[tuple[float, float], int] = {}
+    for line, (x, z) in zip(lines, centres.tolist()):
+        first = seen.setdefault((x, z), line)
+        if first != line:  # two triggers never stop the stylus at the same point to the last digit
+            raise table.error(f"the touch at x {x:g}, z {z:g} mm again (first on line {first}): a row copied twice? "
+                              "Each touch is one row; delete the copy", line)
     return centres, approach / lengths[:, None], lines
 
 
@@ -113,11 +135,12 @@ def read_calibration(path: str) -> CalibrationRun:
     factors = run.factors()
     worst = int(np.argmax(np.abs(factors)))
     if abs(factors[worst]) > 0.5 * stylus:
-        raise table.error(
-            f"this touch is {factors[worst]:+.4f} mm off the artifact's surface: not a touch on the artifact "
-            "(check artifact_radius_mm and its centre)",
-            lines[worst],
-        )
+        def fits(centres: np.ndarray) -> bool:
+            return bool(np.all(np.abs(CalibrationRun(path, stylus, centres, approach, lines, {}, radius, centre)
+                                      .factors()) <= 0.5 * stylus))
+
+        cause = likely_cause(centres, fits, "not a touch on the artifact (check artifact_radius_mm and its centre)")
+        raise table.error(f"this touch is {factors[worst]:+.4f} mm off the artifact's surface: {cause}", lines[worst])
     return run
 
 

@@ -1,0 +1,103 @@
+"""Probe files read against what was probed (postproc.measure.readers.probe, measure.probing.
+check_on_profile): a duplicated touch, micrometres written as millimetres, x written as a
+diameter and a file of another part are each one error (exit 3) naming the file, the row and
+the likely cause, before anything is screened or compensated."""
+
+from __future__ import annotations
+
+import pytest
+from click.testing import CliRunner
+from hypothesis import given, settings, strategies as st
+
+from postproc.cli.main import main
+from support import SAMPLES
+
+HEMISHELL = str(SAMPLES / "programs" / "hemishell.nc")
+PROBE = SAMPLES / "probe" / "hemishell-pass1.csv"
+CALIBRATION = SAMPLES / "probe" / "artifact-calibration.csv"
+TEXT = PROBE.read_text()
+HEADER = [line for line in TEXT.splitlines() if line.startswith("#") or line.startswith("x_mm")]
+ROWS = [line for line in TEXT.splitlines() if line not in HEADER]
+FIRST_ROW = len(HEADER) + 1  #: the line of the first data row
+
+
+def _written(tmp_path_factory, rows, text_header=None) -> str:
+    path = tmp_path_factory.mktemp("probe") / "p.csv"
+    path.write_text("\n".join((text_header or HEADER) + rows) + "\n")
+    return str(path)
+
+
+def _compensate(plugin: str, probe: str, *more: str):
+    return CliRunner().invoke(main, ["compensate", HEMISHELL, "--plugin", plugin, "--probe", probe, *more],
+                              catch_exceptions=False)
+
+
+def _one_error(result, path: str) -> str:
+    assert result.exit_code == 3 and result.stdout == "", result.stderr
+    errors = [line for line in result.stderr.splitlines() if ": error: " in line]
+    assert len(errors) == 1 and errors[0].startswith(f"{path}:"), result.stderr
+    assert "dropped as" not in result.stderr  # refused before any screening
+    return errors[0]
+
+
+def _row(x: float, z: float, rest: list[str]) -> str:
+    return ",".join([f"{x:.7f}", f"{z:.7f}", *rest])
+
+
+def _scaled(rows, fx: float, fz: float):
+    out = []
+    for row in rows:
+        x, z, *rest = row.split(",")
+        out.append(_row(float(x) * fx, float(z) * fz, rest))
+    return out
+
+
+@settings(max_examples=12)
+@given(plugin=st.sampled_from(["omp-feedback", "tool-offset"]),
+       misreading=st.sampled_from([(1000.0, 1000.0, "micrometres written as millimetres?"),
+                                   (2.0, 1.0, "x written as a diameter?")]))
+def test_probe_points_in_another_unit_or_as_diameters_are_refused_naming_the_cause(tmp_path_factory, plugin,
+                                                                                    misreading):
+    fx, fz, cause = misreading
+    path = _written(tmp_path_factory, _scaled(ROWS, fx, fz))
+    error = _one_error(_compensate(plugin, path), path)
+    assert "from the program's nominal profile, beyond the 1 mm any correction reaches" in error and cause in error
+
+
+@settings(max_examples=12)
+@given(plugin=st.sampled_from(["omp-feedback", "tool-offset"]), shift=st.floats(1.2, 500.0),
+       axis=st.sampled_from(["x", "z"]))
+def test_probe_points_far_off_the_profile_are_refused_as_another_part(tmp_path_factory, plugin, shift, axis):
+    rows = [_row(float(x) + (shift if axis == "x" else 0.0), float(z) + (shift if axis == "z" else 0.0), rest)
+            for x, z, *rest in (row.split(",") for row in ROWS)]
+    path = _written(tmp_path_factory, rows)
+    assert "another part, another program or another work offset?" in _one_error(_compensate(plugin, path), path)
+
+
+@settings(max_examples=20)
+@given(plugin=st.sampled_from(["omp-feedback", "tool-offset"]), data=st.data())
+def test_a_touch_written_twice_is_refused_naming_both_rows(tmp_path_factory, plugin, data):
+    copied = data.draw(st.integers(0, len(ROWS) - 1))
+    at = data.draw(st.integers(copied + 1, len(ROWS)))
+    rows = ROWS[:at] + [ROWS[copied]] + ROWS[at:]
+    path = _written(tmp_path_factory, rows)
+    error = _one_error(_compensate(plugin, path), path)
+    assert error.startswith(f"{path}:{FIRST_ROW + at}: error: the touch at ")
+    assert f"again (first on line {FIRST_ROW + copied})" in error and "a row copied twice?" in error
+
+
+@pytest.mark.parametrize("plugin", ["omp-feedback", "tool-offset"])
+def test_the_sample_probe_file_is_accepted(plugin):
+    assert _compensate(plugin, str(PROBE)).exit_code == 0
+
+
+@pytest.mark.parametrize("fx, fz, cause", [(1000.0, 1000.0, "micrometres written as millimetres?"),
+                                           (2.0, 1.0, "x written as a diameter?")])
+def test_a_calibration_in_another_unit_or_as_diameters_names_the_cause(tmp_path, fx, fz, cause):
+    text = CALIBRATION.read_text().splitlines()
+    header = [line for line in text if line.startswith("#") or line.startswith("x_mm")]
+    rows = _scaled([line for line in text if line not in header], fx, fz)
+    path = tmp_path / "c.csv"
+    path.write_text("\n".join(header + rows) + "\n")
+    error = _one_error(_compensate("omp-feedback", str(PROBE), "--calibration", str(path)), str(path))
+    assert "off the artifact's surface" in error and cause in error
