@@ -108,6 +108,7 @@ _INCREMENTAL_OF = {"H": "C", "V": "Y"}
 
 #: The limit a block moving another axis meets when its correction needs more than one block.
 OTHER_AXIS = "another axis in the block"
+BLOCK_TIME, INTERFERENCE = "minimum block time", "nose radius interference check"  #: limits a block may meet
 
 
 

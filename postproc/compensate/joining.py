@@ -11,8 +11,7 @@ from ..diagnostics import Location, UnplannableBlock
 from ..interpret import gcodes as G
 from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Step
 from ..syntax.blocks import Block
-from .edits import NUMBERS, Entry, _as_it_is, _group, macro_word
-from .planning import INTERFERENCE
+from .edits import INTERFERENCE, NUMBERS, Entry, _as_it_is, _group, macro_word
 from .segmenter import Cut
 
 JOIN = 1e-9  #: nominal points closer than this are the same point

@@ -15,10 +15,9 @@ from ..diagnostics import Location, UnplannableBlock
 from ..interpret.motion import ARC, LINE, RAPID, Step
 from ..machine.resolution import Grid
 from . import monotone
-from .edits import Entry, _as_it_is, _one_block_for_other_axes, _rounded_up, _where
+from .edits import BLOCK_TIME, INTERFERENCE, Entry, _as_it_is, _one_block_for_other_axes, _rounded_up, _where
 from .segmenter import RADIUS_CHECK, RESOLUTION, TOLERANCE, Cut, Limits, Plan, PlanError, Segmenter, Target, plan
 
-BLOCK_TIME, INTERFERENCE = "minimum block time", "nose radius interference check"
 _REMEDIES = {
     RESOLUTION: "more decimals (output_decimals_mm, output_decimals_inch in the machine profile) if the control's "
                 "increment system takes them",
