@@ -37,6 +37,9 @@ _GOTO = re.compile(rb"goto[ \t]*(\d+|[#\[])")
 _BETWEEN = rb"(?![ \t]*\d)(?:[^\r\n(]|\([^\r\n)]*\))*?"
 _RETURN = re.compile(rb"m[ \t]*(?:0[ \t]*)*9[ \t]*9" + _BETWEEN + rb"p[ \t]*(\d[\d \t]*|[#\[])")
 _ENTRY = re.compile(rb"m[ \t]*(?:0[ \t]*)*(?:1[ \t]*)?9[ \t]*8" + _BETWEEN + rb"q[ \t]*(\d[\d \t]*|[#\[])")
+# The control reads a block's words in any order: the P or Q may come before the M code.
+_RETURN_AFTER = re.compile(rb"p[ \t]*(\d[\d \t]*|[#\[])[^\r\n(]*?m[ \t]*(?:0[ \t]*)*9[ \t]*9(?![ \t]*\d)")
+_ENTRY_AFTER = re.compile(rb"q[ \t]*(\d[\d \t]*|[#\[])[^\r\n(]*?m[ \t]*(?:0[ \t]*)*(?:1[ \t]*)?9[ \t]*8(?![ \t]*\d)")
 # The control ignores spaces, even inside a number: ``M 0 98 P 3 1000`` calls O1000 three times.
 _CALLS = tuple(
     re.compile(rb"%s[ \t]*(?:0[ \t]*)*%s[ \t]*%s(?![ \t]*\d)[^\r\n(]*?p[ \t]*(\d[\d \t]*)" % code)
@@ -189,7 +192,7 @@ class Source:
                 number = int(spelled.replace(b" ", b"").replace(b"\t", b""))
                 number = number % 10000 if number > 9999 else number  # M98 P31234: 3 times O1234
                 calls[number] = calls.get(number, 0) + 1
-            for pattern in (_GOTO, _RETURN, _ENTRY):
+            for pattern in (_GOTO, _RETURN, _ENTRY, _RETURN_AFTER, _ENTRY_AFTER):
                 for match in pattern.finditer(chunk):
                     target = match.group(1).replace(b" ", b"").replace(b"\t", b"")
                     if target.isdigit():

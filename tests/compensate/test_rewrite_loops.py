@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from support import SAMPLES
@@ -52,6 +52,7 @@ LOOPS = {  # how the loop is closed: (the line that opens it, the lines that clo
     "computed goto": ("N100", "#1=#1+1\nIF[#1GE{n}]GOTO200\nGOTO#2"),
     "m99 p": ("N100", "#1=#1+1\nIF[#1GE{n}]GOTO200\nM99 P100"),
     "computed m99 p": ("N100", "#1=#1+1\nIF[#1GE{n}]GOTO200\nM99 P#2"),
+    "p m99": ("N100", "#1=#1+1\nIF[#1GE{n}]GOTO200\nP100 M99"),  # the words in the other order
     "while": ("WHILE[#1LT{n}]DO1", "#1=#1+1\nEND1"),
 }
 
@@ -92,6 +93,7 @@ def _program(loop: str, passes: int, depth: float, length: float, label_alone: b
 
 @settings(max_examples=60, deadline=None)
 @given(st.sampled_from(sorted(LOOPS)), st.integers(2, 5), st.floats(0.5, 4.0), st.floats(5.0, 60.0), st.booleans())
+@example("p m99", 3, 2.0, 50.0, False)
 def test_every_kind_of_loop_is_cut_pass_by_pass_where_the_original_cuts(loop, passes, depth, length, label_alone):
     original = _program(loop, passes, depth, length, label_alone)
     assert_cuts_where(original, _compensated(original))

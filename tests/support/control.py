@@ -88,14 +88,14 @@ _FLOW = re.compile(r"^(?:N(?P<label>\d+)\s*)?(?:"
                    r"#(?P<var>\d+)=(?P<value>.+)"
                    r"|IF\[#(?P<test>\d+)(?P<op>LT|GE)(?P<limit>\d+)\]GOTO(?P<branch>\d+)"
                    r"|GOTO(?P<goto>#?\d+)"
-                   r"|M99P(?P<back>#?\d+)"
+                   r"|M99P(?P<back>#?\d+)|P(?P<before>#?\d+)M99"
                    r"|WHILE\[#(?P<whiled>\d+)LT(?P<bound>\d+)\]DO(?P<do>\d)"
                    r"|END(?P<end>\d))$")
 
 
 def executed(text: str, limit: int = 10000) -> str:
     """The blocks of a main program in the order a control runs them, its jumps taken: GOTO n,
-    GOTO #v, IF [#v LT|GE n] GOTO n, M99 Pn / P#v (in a main program: a jump to block n), WHILE
+    GOTO #v, IF [#v LT|GE n] GOTO n, M99 Pn / P#v, in either order (in a main program: a jump to block n), WHILE
     [#v LT n] DO m ... END m, and #v = #w + k or #v = k. Every other line is copied; the flow
     statements are left out, so the result is the straight program the machine cuts."""
     lines = text.splitlines()
@@ -124,8 +124,8 @@ def executed(text: str, limit: int = 10000) -> str:
             current = variables.get(int(match["test"]), 0.0)
             if (current < int(match["limit"])) == (match["op"] == "LT"):
                 pc = labels[int(match["branch"])]
-        elif match["goto"] or match["back"]:
-            pc = labels[value(match["goto"] or match["back"])]
+        elif match["goto"] or match["back"] or match["before"]:
+            pc = labels[value(match["goto"] or match["back"] or match["before"])]
         elif match["whiled"]:
             if not variables.get(int(match["whiled"]), 0.0) < int(match["bound"]):
                 pc = next(i for i in range(pc, len(lines)) if lines[i].replace(" ", "") == f"END{match['do']}") + 1

@@ -49,9 +49,11 @@ def test_a_subprogram_called_from_two_places_is_not_compensated():
 
 def test_m99_p_and_m98_q_targets_are_jump_targets_whatever_the_spacing():
     text = ("N100 G01 W-1.\nM99 P100\nm 0 99 p 2 00\nM99P#3\nM990 P300\nG99 P400\nM99 (BACK) P600\n"
-            "M98 Q700\nM98 P2000 Q800\nM198 P3000 Q900\nG65 P9000 Q1.\nM980 Q1000\n")
+            "M98 Q700\nM98 P2000 Q800\nM198 P3000 Q900\nG65 P9000 Q1.\nM980 Q1000\n"
+            # the control reads a block's words in any order
+            "P1100 M99\nQ1200 M98 P5000\np 13 00 m 0 99\nP1400 M990\nQ1500 M980\nP1600 (M99)\n")
     with Source.from_text(text, "t.nc") as source:
         labels = source.labels
-        assert labels.goto_targets == {100, 200, 600, 700, 800, 900}
+        assert labels.goto_targets == {100, 200, 600, 700, 800, 900, 1100, 1200, 1300}
         assert labels.computed_goto  # M99 P#3: any label may be the target
-        assert labels.calls == {2000: 1, 9000: 1}
+        assert labels.calls == {2000: 1, 9000: 1, 5000: 1}
