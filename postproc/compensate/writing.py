@@ -102,6 +102,7 @@ class Writing:
             if cut is None:
                 return
             if last is not None and (last.x1, last.z1) != (cut.x0, cut.z0):  # pieces that do not meet: a connecting move
+                self._no_join_under_nose_offset(step, (last.x1, last.z1), (cut.x0, cut.z0))
                 last = Cut(last.x1, last.z1, cut.x0, cut.z0)
                 cuts.append(last)
             if (cut.x0, cut.z0) != (cut.x1, cut.z1):

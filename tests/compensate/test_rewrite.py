@@ -456,3 +456,21 @@ def test_a_correction_that_jumps_under_g42_is_refused_at_the_block():
     with pytest.raises(SafetyError) as info:
         rewrite(text, _shifted([(0.002, 0.0), (-0.002, 0.001), (0.0, 0.003)]), _nose(0.4), tolerance=0.001)
     assert info.value.location.line == 6 and "join of" in info.value.message and "nose_radius_mm = 0" in info.value.message
+
+
+def test_a_correction_that_jumps_inside_a_block_under_g42_is_refused_at_the_block():
+    """A semicircle under G42 passes X's reversal at its equator; a correction that jumps there
+    (as backlash does) splits the block's target in two, and the pieces are met by a connecting
+    move inside the block: under the nose radius offset that is a join too, and refused."""
+    text = "G18 G21 G99 S500\nG00 X-20. Z80.\nG42 G00 X0. Z57.15\nG03 X0. Z-57.15 I0. K-57.15 F0.08\nG40 G00 X10. Z-70.\n"
+
+    def jump(piece):
+        if not isinstance(piece.segment, Arc):
+            return None
+        return np.tile([0.004 if piece.points[:, 1].mean() > 0.0 else -0.004, 0.0], (len(piece.points), 1))
+
+    with pytest.raises(SafetyError) as info:
+        rewrite(text, jump, _nose(0.4), tolerance=0.001)
+    assert info.value.location.line == 4 and "join of" in info.value.message
+    out, _ = rewrite(text, jump, _nose(0.0), tolerance=0.001)  # a control that does not offset: the join is written
+    assert len(arcs_and_lines(out)) >= 3
