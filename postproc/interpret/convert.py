@@ -284,7 +284,8 @@ class WordConversion:
             return Step(block, (), self.modal)
         if meaning == G.MACRO_CALL:
             self.reporter.warn(
-                "macro call G65: what the macro does is not interpreted; position unknown until the next absolute move",
+                "macro call G65: what the macro does is not interpreted; the position and the motion mode are "
+                "unknown until a block gives G00-G03 and both X and Z absolute",
                 self._location(block, self._col(block, "G")),
             )
             self._after_call()
@@ -319,8 +320,8 @@ class WordConversion:
     def _program_flow(self, block: Block, words: _Words) -> Step:
         if 98 in words.m:
             self.reporter.warn(
-                "subprogram call M98: what the subprogram does is not interpreted; "
-                "position unknown until the next absolute move",
+                "subprogram call M98: what the subprogram does is not interpreted; the position and the motion "
+                "mode are unknown until a block gives G00-G03 and both X and Z absolute",
                 self._location(block, self._col(block, "M")),
             )
             step = self._motion(block, words) if self._has_axis(words) else Step(block, (), self.modal)
