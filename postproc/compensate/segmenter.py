@@ -35,7 +35,7 @@ from ..diagnostics import RADIUS_CHECK, RESOLUTION, TOLERANCE, FitError, PlanErr
 from ..geometry.fitting import hyper_fit
 from ..geometry import TAU, Arc, Line, Segment
 from ..machine.profile import DEFAULT
-from ..machine.resolution import Grid, rounded
+from ..machine.resolution import Grid
 
 AUTO, ARC_MODE, LINE_MODE = "auto", "arc", "line"
 
@@ -604,14 +604,20 @@ class Segmenter:
         return ((tm - t0) % TAU) < ((t1 - t0) % TAU)
 
     def _rounded_centres(self, a, centre):
-        """The centres the four roundings of I and K (down or up, each) give."""
+        """The centres the four roundings of I and K (down or up, each) give.
+
+        A word of ``k`` steps is ``rounded(k * step, decimals)``: ``k * step`` lies within a
+        hair of k/10**decimals for any |k| under 2**51 (the centre is within the profile's
+        max_arc_radius, at most 100 m, here), so the decimal it rounds to is that quotient, and
+        parsing it gives the nearest float, which Python's true division of the two integers
+        gives too: the same floats without formatting and parsing four strings per arc."""
         step, decimals, unit = _grid_constants(self.grid)
-        ix = (centre[0] - a[0]) / unit
-        kz = (centre[1] - a[1]) / unit
-        floor, ceil = math.floor, math.ceil
-        xs = [a[0] + rounded(fx(ix / step) * step, decimals) * unit for fx in (floor, ceil)]  # unit: Grid.offset_of
-        zs = [a[1] + rounded(fz(kz / step) * step, decimals) * unit for fz in (floor, ceil)]
-        return {(x, z) for x in xs for z in zs}
+        scale = 10**decimals
+        ix = (centre[0] - a[0]) / unit / step
+        kz = (centre[1] - a[1]) / unit / step
+        x_down, x_up = a[0] + math.floor(ix) / scale * unit, a[0] + math.ceil(ix) / scale * unit  # unit: Grid.offset_of
+        z_down, z_up = a[1] + math.floor(kz) / scale * unit, a[1] + math.ceil(kz) / scale * unit
+        return {(x_down, z_down), (x_down, z_up), (x_up, z_down), (x_up, z_up)}
 
     # ---------------------------------------------------------------- plans
 

@@ -392,3 +392,27 @@ def test_the_centre_refined_in_buffers_is_the_written_out_gauss_newton_s(radius,
     expected = _reference_refine(points, mid, normal, a, lam)
     assert Segmenter._refine(points, mid, normal, a, lam) == expected
     assert not on_centre or expected is None
+
+
+def _reference_rounded_centres(grid: Grid, a, centre):
+    """The four rounded centres written out with the grid's own rounding (``rounded``)."""
+    from postproc.machine.resolution import rounded
+
+    step, decimals, unit = grid.step, grid.decimals, grid.unit
+    ix, kz = (centre[0] - a[0]) / unit, (centre[1] - a[1]) / unit
+    xs = [a[0] + rounded(f(ix / step) * step, decimals) * unit for f in (math.floor, math.ceil)]
+    zs = [a[1] + rounded(f(kz / step) * step, decimals) * unit for f in (math.floor, math.ceil)]
+    return {(x, z) for x in xs for z in zs}
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.integers(2, 6), st.booleans(), st.booleans(), st.floats(-2000.0, 2000.0), st.floats(-2000.0, 2000.0),
+       st.floats(-100_000.0, 100_000.0), st.floats(-100_000.0, 100_000.0), st.sampled_from([1.0, 1e-3, 1e-6]))
+@example(3, False, True, 10.0, 5.0, 0.25, -0.125, 1.0)  # I and K exactly on the grid: down and up agree
+def test_the_rounded_centres_of_an_arc_are_the_grid_s_rounding_of_i_and_k(decimals, inch, diameter, ax, az, di, dk, scale):
+    """The four centres (I and K each rounded down or up) are, float for float and in the same order,
+    what rounding ``k * step`` to the grid's decimals gives, out to the largest arc radius a profile takes."""
+    grid = Grid(decimals, inch, diameter)
+    segmenter = Segmenter(radial_target(HEMISHELL, 0.0), Limits(0.001, grid))
+    a, centre = (ax, az), (ax + di * scale, az + dk * scale)
+    assert list(segmenter._rounded_centres(a, centre)) == list(_reference_rounded_centres(grid, a, centre))
