@@ -585,11 +585,11 @@ class Segmenter:
             subtract(lam, q, out=jac)
             divide(jac, dist, out=jac)
             subtract(jac, lam / radius, out=jac)
-            denominator = float(jac @ jac)
+            denominator = float(jac.dot(jac))  # the method: the same ddot as ``@``, at less than half its call's cost
             if denominator == 0:
                 return lam
             subtract(dist, radius, out=dist)  # the residual
-            step = -float(jac @ dist) / denominator
+            step = -float(jac.dot(dist)) / denominator
             lam += step
             if abs(step) < 1e-12 * max(1.0, abs(lam)):
                 break
