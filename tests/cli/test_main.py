@@ -287,6 +287,35 @@ def test_a_compensation_with_a_saved_model_imports_only_what_it_uses(run, tmp_pa
     assert [name for name in modules if name.startswith("postproc_plugins.")] == ["postproc_plugins.parametric"]
 
 
+#: A run as the console script starts it (``main()`` with no arguments reads ``sys.argv``), then
+#: whether the objects it built were frozen out of the garbage collector's reach.
+AS_A_PROCESS = """
+import gc, sys
+from postproc.cli.main import main
+try:
+    main()
+except SystemExit as stop:
+    print(stop.code, gc.get_freeze_count() > 0)
+"""
+
+
+def test_a_compensation_in_its_own_process_freezes_what_it_built_and_a_callers_does_not(run, tmp_path):
+    """The collector leaves the imports and the loaded model alone in the command line's own
+    process (a small job's start), never in a caller's, whose objects must stay collectable."""
+    import gc
+    import subprocess
+    import sys
+
+    model = _mixed_model(run, tmp_path)
+    program = str(SAMPLES / "programs/hemishell.nc")
+    assert run("compensate", program, "--model", model, "-o", str(tmp_path / "here.nc")).exit_code == 0
+    assert gc.get_freeze_count() == 0
+    done = subprocess.run([sys.executable, "-c", AS_A_PROCESS, "compensate", program, "--model", model,
+                           "-o", str(tmp_path / "own.nc")], capture_output=True, text=True)
+    assert done.stdout == "0 True\n", done.stderr
+    assert (tmp_path / "own.nc").read_bytes() == (tmp_path / "here.nc").read_bytes()
+
+
 def test_check_and_an_identity_run_import_no_numpy(tmp_path):
     from support import SAMPLES
 
