@@ -8,13 +8,14 @@ their own."""
 from __future__ import annotations
 
 import operator
+from typing import Iterator
 from dataclasses import replace
 
 from ..diagnostics import PostprocError, Reporter, SafetyError
 from ..geometry import segment_of
 from ..interpret.interpreter import Interpreter
 from ..interpret.motion import ARC, LINE, RAPID
-from ..syntax.fastpath import CanonicalLine
+from ..syntax.fastpath import CanonicalLine, canonical_line
 from ..syntax.reader import read_blocks
 from .edits import Entry, _cut_of, _where
 from .farthest import farthest, within
@@ -108,7 +109,7 @@ def _read_back(checker: Interpreter, lines: list[str]) -> list[Cut]:
     new = tuple.__new__  # a cut made as move_under makes a move: by tuple's own constructor
     canonical_motion = checker.canonical_motion
     steady = checker._steady()
-    for line in read_blocks(lines, "<replacement>", light=True):
+    for line in _lines_read(lines):
         if type(line) is CanonicalLine:
             if steady:  # a canonical line changes none of what _steady reads
                 x0, z0 = checker.x, checker.z
@@ -126,6 +127,18 @@ def _read_back(checker: Interpreter, lines: list[str]) -> list[Cut]:
         cuts += map(_cut_of, checker.step(line).moves)
         steady = checker._steady()
     return cuts
+
+
+def _lines_read(lines: list[str]) -> list | Iterator:
+    """``read_blocks(lines, light=True)``: where every line is canonical (a replacement's lines
+    mostly are), the lines it gives, made here without its generator; else the reader itself."""
+    matches = []
+    for raw in lines:
+        match = canonical_line(raw)
+        if match is None:
+            return read_blocks(lines, "<replacement>", light=True)
+        matches.append(match)
+    return [CanonicalLine((number, raw, match.groups())) for number, (raw, match) in enumerate(zip(lines, matches), 1)]
 
 
 def _numbers(cut: Cut) -> tuple[float, ...]:
