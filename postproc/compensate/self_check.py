@@ -129,16 +129,16 @@ def _read_back(checker: Interpreter, lines: list[str]) -> list[Cut]:
     return cuts
 
 
-def _lines_read(lines: list[str]) -> list | Iterator:
-    """``read_blocks(lines, light=True)``: where every line is canonical (a replacement's lines
-    mostly are), the lines it gives, made here without its generator; else the reader itself."""
-    matches = []
-    for raw in lines:
+def _lines_read(lines: list[str]) -> tuple | Iterator:
+    """``read_blocks(lines, light=True)``: a replacement of one canonical line (most are) made here
+    as the CanonicalLine the reader gives, without its generator; any other by the reader itself
+    (for two lines or more its generator costs no more than a loop here)."""
+    if len(lines) == 1:
+        raw = lines[0]
         match = canonical_line(raw)
-        if match is None:
-            return read_blocks(lines, "<replacement>", light=True)
-        matches.append(match)
-    return [CanonicalLine((number, raw, match.groups())) for number, (raw, match) in enumerate(zip(lines, matches), 1)]
+        if match is not None:
+            return (CanonicalLine((1, raw, match.groups())),)
+    return read_blocks(lines, "<replacement>", light=True)
 
 
 def _numbers(cut: Cut) -> tuple[float, ...]:
