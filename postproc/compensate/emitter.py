@@ -12,7 +12,7 @@ contour goes on the last: the cycle looks for it there).
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 
 from ..interpret import gcodes as G
@@ -104,6 +104,12 @@ class Writer:
     #: the axes a line is written with: a type I G71 approach keeps moving X only (its Z stays
     #: where it was), or the cycle would read it as type II
     axes: str = "XZ"
+    #: decimals written, X's factor (2 for a diameter) and mm per program unit: asked for every value written
+    _scale: tuple[int, float, float] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        grid = self.grid
+        object.__setattr__(self, "_scale", (grid.decimals, 2.0 if grid.diameter else 1.0, grid.unit))
 
     @staticmethod
     def motion_of(cut: Cut) -> int:
@@ -125,23 +131,25 @@ class Writer:
         holds the two to each other)."""
         if not self.absolute:
             return self._incremental_words(cut, style)
-        grid = self.grid
-        decimals, trim, leading_zero = grid.decimals, style.trim, style.leading_zero
+        decimals, d, unit = self._scale
+        trim, leading_zero = style.trim, style.leading_zero
         x_letter, z_letter, i_letter, k_letter = _LOWER if style.lower else _UPPER
-        unit = grid.unit
-        if cut.xc is None:
+        x0, z0, x1, z1, xc, zc, _, _ = cut
+        if xc is None:
             axes = self.axes
+            if axes == "XZ":
+                return [x_letter + _word_text(x1 * d / unit, decimals, trim, leading_zero),
+                        z_letter + _word_text(z1 / unit, decimals, trim, leading_zero)]
             words = []
             if "X" in axes:
-                words.append(x_letter + _word_text(cut.x1 * (2.0 if grid.diameter else 1.0) / unit, decimals, trim,
-                                                   leading_zero))
+                words.append(x_letter + _word_text(x1 * d / unit, decimals, trim, leading_zero))
             if "Z" in axes:
-                words.append(z_letter + _word_text(cut.z1 / unit, decimals, trim, leading_zero))
+                words.append(z_letter + _word_text(z1 / unit, decimals, trim, leading_zero))
             return words
-        return [x_letter + _word_text(cut.x1 * (2.0 if grid.diameter else 1.0) / unit, decimals, trim, leading_zero),
-                z_letter + _word_text(cut.z1 / unit, decimals, trim, leading_zero),
-                i_letter + _word_text((cut.xc - cut.x0) / unit, decimals, trim, leading_zero),
-                k_letter + _word_text((cut.zc - cut.z0) / unit, decimals, trim, leading_zero)]
+        return [x_letter + _word_text(x1 * d / unit, decimals, trim, leading_zero),
+                z_letter + _word_text(z1 / unit, decimals, trim, leading_zero),
+                i_letter + _word_text((xc - x0) / unit, decimals, trim, leading_zero),
+                k_letter + _word_text((zc - z0) / unit, decimals, trim, leading_zero)]
 
     def _incremental_words(self, cut: Cut, style: Style) -> list[str]:
         """:meth:`geometry_words` in incremental mode (U and W written as X and Z under G91):

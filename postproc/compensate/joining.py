@@ -130,6 +130,8 @@ class Joining:
     def _connector(self, start, end, step: Step) -> Cut | None:
         """The connecting G01 from ``start`` to ``end``, written with ``step``'s block; None
         when they are one point on the output grid."""
+        if start == end:  # one point, on the grid or not (the corrections of two pieces at the point they share)
+            return None
         grid = self._grid(step)  # _snap's, looked up once for both ends
         a, b = grid.snap(*start), grid.snap(*end)
         if a == b:

@@ -173,18 +173,28 @@ class Pipeline:
         with tempfile.SpooledTemporaryFile(max_size=1 << 20) as body:
             total = progress.lines(source) if progress.shown() else 0  # counted only for a line on a terminal
             with progress.bar(total, os.path.basename(source.name), progress.MIN_BLOCKS) as shown:
+                # each line encoded as it comes (an encoding error stops the run at its line), written a
+                # chunk at a time; the lead lines are offered to ``lead`` until the first it does not take
+                # (it takes none after that one)
+                chunk: list[bytes] = []
+                leading = True
                 for text in rewriter.run():
                     written += 1
                     if not written % progress.EVERY:
                         shown.advance(progress.EVERY)
-                    if body.tell() == 0 and lead.takes(text):
-                        continue
-                    body.write(text.encode("utf-8", "surrogateescape"))
+                        body.write(b"".join(chunk))
+                        chunk.clear()
+                    if leading:
+                        if lead.takes(text):
+                            continue
+                        leading = False
+                    chunk.append(text.encode("utf-8", "surrogateescape"))
                     if opening and written == anchor.block.line:
                         if text != anchor.block.raw:
                             raise InternalError(f"line {anchor.block.line} was not written as it was read: the opening "
                                                 "blocks have no place")
-                        body.write("".join(line + anchor.block.eol for _, line in opening).encode())
+                        chunk.append("".join(line + anchor.block.eol for _, line in opening).encode())
+                body.write(b"".join(chunk))
             for compensator in self.compensators:
                 self._guarded(compensator, "finish", compensator.finish, model=self.request.model)
             spool.write("".join(lead.lines).encode("utf-8", "surrogateescape"))

@@ -43,6 +43,7 @@ from ..machine.profile import MachineProfile
 from ..machine.resolution import Grid
 from . import monotone
 from .compensator import Piece
+from .emitter import Writer
 from .correcting import _ALONG, Correcting, STEPS, _travel, _turns, pieces, sample_lines, travel_after
 from .edits import _CALLS, _INCREMENTAL_OF, KEEP, MACRO_VALUES, NAMED, NUMBERS, REFUSE, Edit, Entry, macro_word
 from .joining import Joining
@@ -98,6 +99,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
         self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
         self._checker: Interpreter | None = None  # reads replacements back (the self-check)
         self._grids: dict[bool, Grid] = {}  # by inch
+        self._writers: dict[tuple[bool, bool, str], Writer] = {}  # by inch, absolute and axes
         self._allowances: dict[bool, tuple[float, float]] = {}  # for the last check, by inch
         self._grid_steps: dict[bool, tuple[float, float]] = {}  # by inch
         self._limits: dict[tuple[float, bool], Limits] = {}  # by tolerance and inch
@@ -109,20 +111,25 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
     def run(self) -> Iterator[str]:
         self._window, self._previous, self._pending = [], None, None
         self.mode_now = self.original_mode = None
+        others = bool(self._others)
+        one_way = monotone.ONE_WAY_CYCLES
+        write = self._write
         for batch in self._corrected(self.steps):
             for entry in batch:
-                if self._others:
-                    entry.moving = self._moving_word(entry.step)
-                if self._pending is None and entry.step.contour_start and entry.step.cycle in monotone.ONE_WAY_CYCLES:
+                step = entry.step
+                if others:
+                    entry.moving = self._moving_word(step)
+                if self._pending is None and step.contour_start and step.cycle in one_way:
                     self._pending = []
                 if self._pending is not None:  # a G71/G72 contour is settled as a whole, then written
                     self._pending.append(entry)
-                    if entry.step.contour_end or not entry.step.in_contour:
+                    if step.contour_end or not step.in_contour:
                         yield from self._release()
                 elif entry.refusal is None and not entry.motion:
                     self._window.append(entry)
                 else:
-                    yield from self._take(entry)
+                    for waiting in self._take(entry):  # each written as its lines are asked for
+                        yield from write(waiting)
         if self._pending is not None:
             yield from self._release()
         if self._previous is not None:
@@ -160,30 +167,29 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
         return moving
 
 
-    def _take(self, entry: Entry) -> Iterator[str]:
-        """One step in program order: a motion step is planned, joined to the motion step
-        before it, and the window before it written out."""
+    def _take(self, entry: Entry) -> list[Entry]:
+        """One step in program order: a motion step is planned and joined to the motion step
+        before it; the window before it is given back, to be written out."""
         if entry.refusal is not None:
             raise entry.refusal
         if not entry.motion:
             self._window.append(entry)
-            return
+            return []
         if entry.edited:
             self._plan_edits(entry)
             if self._one_way is not None and entry.step.in_contour:
                 self._hold_plans(entry)
         if self._previous is not None:
             self._join(self._previous, entry)
-        for waiting in self._window:  # _flush's, without a generator of its own for every motion step
-            yield from self._write(waiting)
-        self._window = [entry]
-        self._previous = entry
+        window, self._window, self._previous = self._window, [entry], entry
+        return window
 
     def _release(self) -> Iterator[str]:
         entries, self._pending = self._pending, None
         self._one_way = self._settle_one_way(entries)
         for entry in entries:
-            yield from self._take(entry)
+            for waiting in self._take(entry):
+                yield from self._write(waiting)
 
     def _corrected(self, steps: Iterable[Step]) -> Iterator[list[Entry]]:
         """The steps in batches of at most BATCH, each motion step with its edits: the pieces

@@ -8,13 +8,14 @@ their own."""
 from __future__ import annotations
 
 import operator
+from typing import Iterator
 from dataclasses import replace
 
 from ..diagnostics import PostprocError, Reporter, SafetyError
 from ..geometry import segment_of
 from ..interpret.interpreter import Interpreter
 from ..interpret.motion import ARC, LINE, RAPID
-from ..syntax.fastpath import CanonicalLine
+from ..syntax.fastpath import CanonicalLine, canonical_line
 from ..syntax.reader import read_blocks
 from .edits import Entry, _cut_of, _where
 from .farthest import farthest, within
@@ -108,7 +109,7 @@ def _read_back(checker: Interpreter, lines: list[str]) -> list[Cut]:
     new = tuple.__new__  # a cut made as move_under makes a move: by tuple's own constructor
     canonical_motion = checker.canonical_motion
     steady = checker._steady()
-    for line in read_blocks(lines, "<replacement>", light=True):
+    for line in _lines_read(lines):
         if type(line) is CanonicalLine:
             if steady:  # a canonical line changes none of what _steady reads
                 x0, z0 = checker.x, checker.z
@@ -126,6 +127,18 @@ def _read_back(checker: Interpreter, lines: list[str]) -> list[Cut]:
         cuts += map(_cut_of, checker.step(line).moves)
         steady = checker._steady()
     return cuts
+
+
+def _lines_read(lines: list[str]) -> tuple | Iterator:
+    """``read_blocks(lines, light=True)``: a replacement of one canonical line (most are) made here
+    as the CanonicalLine the reader gives, without its generator; any other by the reader itself
+    (for two lines or more its generator costs no more than a loop here)."""
+    if len(lines) == 1:
+        raw = lines[0]
+        match = canonical_line(raw)
+        if match is not None:
+            return (CanonicalLine((1, raw, match.groups())),)
+    return read_blocks(lines, "<replacement>", light=True)
 
 
 def _numbers(cut: Cut) -> tuple[float, ...]:

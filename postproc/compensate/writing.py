@@ -7,8 +7,6 @@ their own."""
 
 from __future__ import annotations
 
-from typing import Iterator
-
 import numpy as np
 
 from ..diagnostics import Location, SafetyError
@@ -26,7 +24,8 @@ _NO_XZIK = (None,) * 4  #: a canonical block's X Z I K, none written
 class Writing:
     """Writing, mixed into :class:`~postproc.compensate.rewrite.Rewriter`."""
 
-    def _write(self, entry: Entry) -> Iterator[str]:
+    def _write(self, entry: Entry) -> list[str]:
+        """The lines written for a step: the block as it was, or its replacement, checked."""
         step = entry.step
         block = step.block
         before = self.original_mode
@@ -47,23 +46,27 @@ class Writing:
             if relies and self.mode_now is not None and before is not None and self.mode_now != before:
                 self._mode_outside_region(step, before)
                 writer = writer_for(self._grid(step), self.profile.gcode_system, step.modal.absolute)
-                yield with_motion_code(block, writer.code(before, Style.of(block)))
                 self.mode_now = before
-                return
+                return [with_motion_code(block, writer.code(before, Style.of(block)))]
             if sets_mode or self.mode_now is None:
                 self.mode_now = step.modal.motion
             self._follow_contour(step, None)
-            yield block.raw
-            return
+            return [block.raw]
         if self.request.macro_values == NUMBERS:
             word = macro_word(block)
             if word is not None:
                 self._said_macro(block, word, "its macro values are written as numbers (--macro-values numbers): "
                                               "the block no longer follows the variables it reads")
         cuts = self._cuts(entry)
-        _one_block_for_other_axes(entry, len(cuts), self.file, joined=True)  # joins may have split it
+        if entry.moving is not None:
+            _one_block_for_other_axes(entry, len(cuts), self.file, joined=True)  # joins may have split it
         self._within_limits(step, cuts)
-        writer = writer_for(self._grid(step), self.profile.gcode_system, step.modal.absolute, entry.axes)
+        modal = step.modal
+        key = (modal.inch, modal.absolute, entry.axes)
+        writer = self._writers.get(key)
+        if writer is None:
+            writer = self._writers[key] = writer_for(self._grid(step), self.profile.gcode_system, modal.absolute,
+                                                     entry.axes)
         lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
         self._self_check(entry, lines, cuts)
         self._near_nominal(entry, cuts)
@@ -71,7 +74,7 @@ class Writing:
         self.mode_now = mode
         self.replaced += 1
         self.emitted += len(lines)
-        yield from lines
+        return lines
 
     def _mode_outside_region(self, step: Step, mode: int) -> None:
         """A block outside --region that relies on a motion mode a join inside the region no

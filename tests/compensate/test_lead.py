@@ -8,6 +8,8 @@ import pytest
 from postproc.compensate.lead import Lead
 
 BODY = "G18 G21 G99\nG00 X20. Z2.\nG01 Z-10. F0.1\nG00 X100. Z50.\nM30\n"
+#: longer than the lines written to the output a chunk at a time (compensate.progress.EVERY)
+LONG = "G18 G21 G99\n" + "G00 X20. Z2.\nG01 Z-10. F0.1\n" * 1500 + "M30\n"
 
 # (program, how many of its first lines come before the header)
 SHAPES = [
@@ -21,6 +23,7 @@ SHAPES = [
     ("%\nO1\n%\nO2\n" + BODY, 2),  # text after the closing %
     ("O1\nO2\n" + BODY, 1),  # a second program number starts another program
     ("<PART_1>\n(CAM NOTE)\n" + BODY, 1),  # a comment is no part of the lead
+    ("%\nO1000\n" + LONG + "%\n", 2),  # a program of several chunks
 ]
 
 

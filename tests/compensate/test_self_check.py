@@ -15,13 +15,14 @@ import numpy as np
 from postproc.compensate.edits import _cut_of
 from postproc.compensate.request import Request
 from postproc.compensate.rewrite import Rewriter
-from postproc.compensate.self_check import _read_back
+from postproc.compensate.self_check import _lines_read, _read_back
 from postproc.diagnostics import PostprocError, Reporter, SafetyError
 from postproc.interpret import gcodes as G
 from postproc.interpret.interpreter import Interpreter
 from postproc.interpret.motion import Modal
 from postproc.interpret.program import interpret_source
 from postproc.machine.profile import DEFAULT
+from postproc.syntax.fastpath import CanonicalLine
 from postproc.syntax.reader import read_blocks
 from postproc.syntax.source import Source
 from support.strategies import canonical_lines, lathe_blocks
@@ -62,6 +63,19 @@ def test_a_replacement_reads_back_by_the_fast_path_as_by_the_general_one(lines, 
         checker.modal = Modal(motion=motion, feed=feed)
         outcomes.append(_outcome(read, checker, lines))
     assert outcomes[0] == outcomes[1], lines
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.lists(st.one_of(canonical_lines(), canonical_lines(), canonical_lines(), lathe_blocks(), st.just("%")),
+                min_size=1, max_size=3), st.sampled_from(["\n", "\r\n", ""]))
+def test_a_replacements_lines_are_read_as_the_reader_reads_them(lines, eol):
+    """The self-check's own route for a replacement of one line gives what the reader's light stream does."""
+    lines = [line + eol for line in lines]
+    def read(items):
+        return [(type(item), tuple(item) if type(item) is CanonicalLine else (item.line, item.raw, item.kind))
+                for item in items]
+
+    assert read(_lines_read(lines)) == read(read_blocks(lines, "<replacement>", light=True))
 
 
 @pytest.mark.parametrize("word", ["M99", "M30", "M98 P100"])
