@@ -32,7 +32,6 @@ from typing import NamedTuple
 import numpy as np
 
 from ..diagnostics import RADIUS_CHECK, RESOLUTION, TOLERANCE, FitError, PlanError
-from ..geometry.fitting import hyper_fit
 from ..geometry import TAU, Arc, Line, Segment
 from ..machine.profile import DEFAULT
 from ..machine.resolution import Grid
@@ -551,6 +550,8 @@ class Segmenter:
         if isinstance(self.frame.nominal, Arc) and j - i >= 0.5 * self.last:
             return (self.frame.cx, self.frame.cz)
         if len(points) >= 3:
+            from ..geometry.fitting import hyper_fit  # here: a program of single arcs never needs it (a small job's start)
+
             try:
                 xc, zc, _ = hyper_fit(points)
                 return (xc, zc)
