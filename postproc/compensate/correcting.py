@@ -43,6 +43,31 @@ def sample_lines(parts: list[Piece]) -> None:
         first += count
 
 
+def sample_arcs(parts: list[Piece]) -> None:
+    """Sample the points of every arc piece in one array pass (``Arc.point_at``'s arithmetic,
+    point for point, a spiral's radius drifting with the parameter): a CAM program has
+    thousands of short arcs, and numpy called per arc was most of their cost."""
+    arcs = [piece for piece in parts if type(piece.segment) is Arc and "points" not in piece.__dict__]
+    if not arcs:
+        return
+    counts = [len(piece.t) for piece in arcs]
+    segments = [piece.segment for piece in arcs]
+    t = np.concatenate([piece.t for piece in arcs])
+    theta0, sweep, r, drift, xc, zc = np.repeat(np.array(
+        [(arc.theta0, arc.sweep, arc.r, 0.0 if arc.r1 is None else arc.r1 - arc.r, arc.xc, arc.zc) for arc in segments]),
+        counts, axis=0).T
+    theta = theta0 + t * sweep
+    radius = r + t * drift  # radius_at's: r + 0.0 is r on a circle
+    points = np.empty((len(t), 2))
+    points[:, 0] = xc + radius * np.cos(theta)
+    points[:, 1] = zc + radius * np.sin(theta)
+    points.setflags(write=False)
+    first = 0
+    for piece, count in zip(arcs, counts):
+        piece.__dict__["points"] = points[first : first + count]  # what the cached property would compute
+        first += count
+
+
 def _travel(dx: float, dz: float, last: tuple[int, int], steps: tuple[float, float]) -> tuple[int, int]:
     """Which way each axis runs over a piece that moves it by (dx, dz): the sign of that travel,
     or the way the axis last ran when it travels less than half a step of the output grid
@@ -199,8 +224,6 @@ class Correcting:
                     if (open_ and kind != RAPID and (kind == ARC or (move.x0, move.z0) != (move.x1, move.z1))
                             and selects(step, move)):  # _candidate's
                         segment = Line(move.x0, move.z0, move.x1, move.z1)  # pieces': one, moving as it leaves
-
-                        segment = Line(move.x0, move.z0, move.x1, move.z1)
                         wanted.append((entry, index, [Piece(move, segment, sample_params(segment), *after)]))
                     last = after
                     continue
@@ -216,6 +239,7 @@ class Correcting:
         """The corrections of the wanted moves' pieces, in one call, and the edits they make."""
         every = [piece for _, _, parts in wanted for piece in parts]
         sample_lines(every)
+        sample_arcs(every)
         shifts = self.corrector(every)
         given = [shift for shift in shifts if shift is not None]
         if not given:

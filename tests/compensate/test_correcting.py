@@ -9,13 +9,15 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from postproc.compensate.correcting import _merge_continuous, _part, pieces, travel_after
+from postproc.compensate.compensator import Piece
+from postproc.compensate.correcting import _merge_continuous, _part, pieces, sample_arcs, sample_lines, travel_after
 from postproc.compensate.edits import Entry
 from postproc.compensate.request import Request
 from postproc.compensate.rewrite import Rewriter
-from postproc.compensate.segmenter import Target
+from postproc.compensate.segmenter import Target, sample_params
 from postproc.diagnostics import Reporter
-from postproc.geometry import Arc
+from postproc.geometry import Arc, Line
+from postproc.interpret.motion import LINE, Move
 from postproc.interpret.program import interpret_source
 from postproc.machine.profile import DEFAULT
 from postproc.syntax.source import Source
@@ -94,3 +96,22 @@ def test_a_batch_gives_every_move_the_pieces_and_targets_it_gets_alone(moves):
                         assert np.array_equal(mine.points, theirs.points)
             last = travel_after(one, last, steps_mm)
     assert rewriter._last_travel == last
+
+
+coordinate = st.floats(-500.0, 500.0)
+segments = st.one_of(st.builds(Line, coordinate, coordinate, coordinate, coordinate),
+                     st.builds(Arc, coordinate, coordinate, radii, angles, st.floats(-6.3, 6.3),
+                               st.one_of(st.none(), radii)))
+
+
+@given(st.lists(segments, min_size=1, max_size=30))
+def test_pieces_sampled_together_are_sampled_as_each_alone(chosen):
+    """Lines of every direction, arcs either way of any sweep, spirals: the points of a batch,
+    worked out in one array pass, are each piece's ``point_at`` to the last bit."""
+    move = Move(LINE, 1, 0.0, 0.0, 1.0, 1.0)
+    parts = [Piece(move, segment, sample_params(segment), 1, -1) for segment in chosen]
+    sample_lines(parts)
+    sample_arcs(parts)
+    for piece in parts:
+        assert np.array_equal(piece.points, piece.segment.point_at(piece.t))
+        assert not piece.points.flags.writeable
