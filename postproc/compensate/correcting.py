@@ -13,7 +13,7 @@ from itertools import accumulate
 import numpy as np
 
 from ..diagnostics import Location, SafetyError
-from ..geometry import Arc, Line, Segment, reversal_params_of, segment_of
+from ..geometry import QUADRANTS, Arc, Line, Segment, reversal_params_of, segment_of
 from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
 from . import monotone
 from .compensator import Piece
@@ -23,6 +23,7 @@ from .segmenter import Target, measure_bends, sample_params
 STEPS = (0.0005, 0.001)  #: the output grid's x and z steps (radius mm) of a metric diameter program
 _ALONG = (RUN, CONTOUR, CORNER)  #: the roles of the moves that run along the program
 _TRAVELLED = (LINE, ARC, RAPID)  #: the kinds of move whose travel :func:`travel_after` follows
+_QUARTER_TURNS = np.array(QUADRANTS) * (math.pi / 2)  #: where an axis of a circle reverses, radians
 
 
 def sample_lines(parts: list[Piece]) -> None:
@@ -291,7 +292,9 @@ class Correcting:
     def _arcs_of(self, motions: list[Entry]) -> dict[int, tuple[Arc, list[float]]]:
         """The arc of every arc move of the batch's motion steps and its :func:`_turns` (by ``id``
         of the move), their reversal parameters found in one array pass: :func:`pieces` and
-        :func:`travel_after` both need them, for every arc of the program."""
+        :func:`travel_after` both need them, for every arc of the program. An arc whose every
+        reversal lies where :func:`_turns` cannot keep it (:func:`_unseen_turns`) has none, its
+        reversal parameters left unworked."""
         arcs: list[Arc] = []
         owners: list[tuple[Move, tuple[float, float]]] = []
         for entry in motions:
@@ -300,8 +303,45 @@ class Correcting:
                 if move.kind == ARC and move.xc is not None and move.known and move.exact:
                     arcs.append(segment_of(move))
                     owners.append((move, steps))
-        return {id(move): (arc, _turns(arc, steps, found))
-                for (move, steps), arc, found in zip(owners, arcs, reversal_params_of(arcs))}
+        if not arcs:
+            return {}
+        unseen = _unseen_turns(arcs, np.array([max(steps) for _, steps in owners])).tolist()
+        seen = iter(reversal_params_of([arc for arc, none in zip(arcs, unseen) if not none]))
+        return {id(move): (arc, [] if none else _turns(arc, steps, next(seen)))
+                for (move, steps), arc, none in zip(owners, arcs, unseen)}
+
+
+def _unseen_turns(arcs: list[Arc], step: np.ndarray) -> np.ndarray:
+    """Whether each arc's reversals all fall within ``step`` (its grid's larger step, mm) of its
+    ends, so that :func:`_turns` keeps none of them: worked out for all the arcs in one array
+    pass from bounds on where they lie, and False where the bounds cannot tell.
+
+    A quarter turn reaches the sweep only within ``reversal_params_of``'s reach of it (a spiral
+    moves its apex by ``atan(dr / (r sweep))``, never more than ``|dr| / (r |sweep|)``; the
+    reach has a micro-radian to spare). A reversal ``_turns`` keeps lies at least
+    ``step / length`` in parameter from either end. A CAM program's arcs start on an axis
+    (I or K zero) and their radii drift by the rounding of the end point: each such arc has a
+    reversal picometres past its start, which no output grid sees."""
+    theta0 = np.array([arc.theta0 for arc in arcs])
+    sweep = np.array([arc.sweep for arc in arcs])
+    r = np.array([arc.r for arc in arcs])
+    end = np.array([arc.end_radius for arc in arcs])
+    span = np.abs(sweep)
+    smallest = np.minimum(r, end)
+    length = span * (r + end) / 2.0  # Arc.length
+    margin = 1e-9  # a parameter's rounding (to 12 places) and the arithmetic, with room to spare
+    sign = np.where(sweep >= 0, 1.0, -1.0)
+    along = np.remainder(sign[:, None] * (_QUARTER_TURNS[None, :] - theta0[:, None]), math.tau)
+    with np.errstate(all="ignore"):  # no sweep, no radius, no length: an infinite reach, an empty stretch
+        reach = np.abs(end - r) / (smallest * span)
+        reach = np.where(np.isfinite(reach) & (smallest > 0.0), reach, math.inf)[:, None] + 1e-6
+        shortest = np.where(length > 0.0, step / length, math.inf)
+        low = ((shortest - margin) * span)[:, None]  # along the sweep, below it: too near the start
+        high = ((1.0 - shortest + margin) * span)[:, None]  # above it: too near the end
+        bottom, top = along - reach, along + reach
+        near_start = (top < low) & ((bottom >= 0.0) | (bottom + math.tau > high))
+        near_end = (bottom > high) & ((top <= math.tau) | (top - math.tau < low))
+    return (near_start | near_end).all(axis=1) | (span == 0.0)
 
 
 def _merge_continuous(targets: list[Target], gap: float) -> list[Target]:

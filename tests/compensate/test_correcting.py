@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from postproc.compensate.compensator import Piece
-from postproc.compensate.correcting import _merge_continuous, _part, pieces, sample_arcs, sample_lines, travel_after
+from postproc.compensate.correcting import _merge_continuous, _part, _turns, _unseen_turns, pieces, sample_arcs, sample_lines, travel_after
 from postproc.compensate.edits import Entry
 from postproc.compensate.request import Request
 from postproc.compensate.rewrite import Rewriter
@@ -115,3 +115,35 @@ def test_pieces_sampled_together_are_sampled_as_each_alone(chosen):
     for piece in parts:
         assert np.array_equal(piece.points, piece.segment.point_at(piece.t))
         assert not piece.points.flags.writeable
+
+
+quarter = st.integers(-4, 4).map(lambda k: k * math.pi / 2)
+starts = st.one_of(angles, quarter, st.tuples(quarter, st.floats(-1e-6, 1e-6)).map(sum))
+drifts = st.one_of(st.just(0.0), st.floats(-1e-3, 1e-3), st.floats(-1.0, 1.0))
+turning_arcs = st.builds(lambda xc, zc, r, theta0, sweep, drift: Arc(xc, zc, r, theta0, sweep,
+                                                                     None if drift == 0.0 else r + drift),
+                         st.floats(-100, 100), st.floats(-100, 100), st.floats(0.01, 200.0), starts,
+                         st.one_of(st.floats(-6.3, 6.3), st.floats(-0.05, 0.05)), drifts)
+grids = st.sampled_from([(0.0005, 0.001), (0.00127, 0.00254), (0.005, 0.01)])
+
+
+@settings(max_examples=300)
+@given(st.lists(turning_arcs, min_size=1, max_size=20), grids)
+def test_an_arc_said_to_have_no_turn_the_grid_sees_has_none(arcs, steps):
+    """Arcs starting on an axis or beside one, either way, spirals drifting by a rounding or by
+    a millimetre: the arcs whose turns are left unworked are arcs :func:`_turns` gives none."""
+    unseen = _unseen_turns(arcs, np.full(len(arcs), max(steps)))
+    for arc, none in zip(arcs, unseen.tolist()):
+        if none:
+            assert _turns(arc, steps) == []
+
+
+def test_a_cam_posts_arcs_starting_on_an_axis_have_their_turns_left_unworked():
+    """An I/K arc from a point on the axis through its centre, its end rounded to the
+    micrometre: a reversal picometres past its start that no grid sees."""
+    text = _program([("arc", -20.0, 0.0, 0.2), ("line", 0.0, -1.0, 0.0), ("arc", 15.0, 0.0, -0.3)])
+    with Source.from_text(text, "t.nc") as source:
+        arcs = [Arc.through((m.x0, m.z0), (m.x1, m.z1), (m.xc, m.zc), bool(m.cw))
+                for step in interpret_source(source) for m in step.moves if m.kind == "arc"]
+    assert len(arcs) == 2 and all(arc.r1 is not None and arc.reversal_params() for arc in arcs)
+    assert _unseen_turns(arcs, np.full(2, 0.001)).all()
