@@ -305,40 +305,49 @@ class Correcting:
                     owners.append((move, steps))
         if not arcs:
             return {}
-        unseen = _unseen_turns(arcs, np.array([max(steps) for _, steps in owners])).tolist()
+        unseen = _unseen_turns(arcs, np.array([steps for _, steps in owners])).tolist()
         seen = iter(reversal_params_of([arc for arc, none in zip(arcs, unseen) if not none]))
         return {id(move): (arc, [] if none else _turns(arc, steps, next(seen)))
                 for (move, steps), arc, none in zip(owners, arcs, unseen)}
 
 
-def _unseen_turns(arcs: list[Arc], step: np.ndarray) -> np.ndarray:
-    """Whether each arc's reversals all fall within ``step`` (its grid's larger step, mm) of its
-    ends, so that :func:`_turns` keeps none of them: worked out for all the arcs in one array
-    pass from bounds on where they lie, and False where the bounds cannot tell.
+def _unseen_turns(arcs: list[Arc], steps: np.ndarray) -> np.ndarray:
+    """Whether each arc's reversals all lie where :func:`_turns` keeps none of them (``steps``:
+    each arc's grid steps in x and z, mm, one row per arc): worked out for all the arcs in one
+    array pass from bounds on where the reversals lie, False where the bounds cannot tell.
 
-    A quarter turn reaches the sweep only within ``reversal_params_of``'s reach of it (a spiral
-    moves its apex by ``atan(dr / (r sweep))``, never more than ``|dr| / (r |sweep|)``; the
-    reach has a micro-radian to spare). A reversal ``_turns`` keeps lies at least
-    ``step / length`` in parameter from either end. A CAM program's arcs start on an axis
-    (I or K zero) and their radii drift by the rounding of the end point: each such arc has a
-    reversal picometres past its start, which no output grid sees."""
+    A spiral moves an axis's apex off its quarter turn by ``atan(dr / (r |sweep|))`` along the
+    sweep: the way its radius drifts, never further than ``|dr| / (r |sweep|)``
+    (``reversal_params_of``'s reach; a micro-radian to spare either way). ``_turns`` keeps no reversal within one grid step of
+    either end (in parameter, ``step / length``), nor one the axis reaches from the end (or
+    leaves towards it) by less than half a step: the tool travels at most
+    ``|sweep| r_max + |dr|`` per unit of parameter, so nearer than that half step over this
+    speed no axis travels enough. A CAM program's arcs start on an axis (I or K zero) and their
+    radii drift by the rounding of the end point: each such arc has a reversal picometres past
+    its start, which no output grid sees."""
     theta0 = np.array([arc.theta0 for arc in arcs])
     sweep = np.array([arc.sweep for arc in arcs])
     r = np.array([arc.r for arc in arcs])
     end = np.array([arc.end_radius for arc in arcs])
     span = np.abs(sweep)
+    drift = np.abs(end - r)
     smallest = np.minimum(r, end)
     length = span * (r + end) / 2.0  # Arc.length
+    speed = span * np.maximum(r, end) + drift
     margin = 1e-9  # a parameter's rounding (to 12 places) and the arithmetic, with room to spare
     sign = np.where(sweep >= 0, 1.0, -1.0)
     along = np.remainder(sign[:, None] * (_QUARTER_TURNS[None, :] - theta0[:, None]), math.tau)
     with np.errstate(all="ignore"):  # no sweep, no radius, no length: an infinite reach, an empty stretch
-        reach = np.abs(end - r) / (smallest * span)
-        reach = np.where(np.isfinite(reach) & (smallest > 0.0), reach, math.inf)[:, None] + 1e-6
-        shortest = np.where(length > 0.0, step / length, math.inf)
-        low = ((shortest - margin) * span)[:, None]  # along the sweep, below it: too near the start
-        high = ((1.0 - shortest + margin) * span)[:, None]  # above it: too near the end
-        bottom, top = along - reach, along + reach
+        reach = drift / (smallest * span)
+        reach = np.where(np.isfinite(reach) & (smallest > 0.0), reach, math.inf)
+        back = np.where(end < r, reach, 0.0)[:, None] + 1e-6  # a shrinking radius: the apex comes earlier
+        ahead = np.where(end > r, reach, 0.0)[:, None] + 1e-6
+        shortest = np.where(length > 0.0, steps.max(axis=1) / length, math.inf)
+        travel = np.where(speed > 0.0, steps.min(axis=1) / 2.0 * (1.0 - 1e-6) / speed, math.inf)
+        edge = np.maximum(shortest, travel) - margin  # in parameter, from either end
+        low = (edge * span)[:, None]  # along the sweep, below it: too near the start
+        high = ((1.0 - edge) * span)[:, None]  # above it: too near the end
+        bottom, top = along - back, along + ahead
         near_start = (top < low) & ((bottom >= 0.0) | (bottom + math.tau > high))
         near_end = (bottom > high) & ((top <= math.tau) | (top - math.tau < low))
     return (near_start | near_end).all(axis=1) | (span == 0.0)

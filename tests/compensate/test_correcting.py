@@ -132,7 +132,7 @@ grids = st.sampled_from([(0.0005, 0.001), (0.00127, 0.00254), (0.005, 0.01)])
 def test_an_arc_said_to_have_no_turn_the_grid_sees_has_none(arcs, steps):
     """Arcs starting on an axis or beside one, either way, spirals drifting by a rounding or by
     a millimetre: the arcs whose turns are left unworked are arcs :func:`_turns` gives none."""
-    unseen = _unseen_turns(arcs, np.full(len(arcs), max(steps)))
+    unseen = _unseen_turns(arcs, np.array([steps] * len(arcs)))
     for arc, none in zip(arcs, unseen.tolist()):
         if none:
             assert _turns(arc, steps) == []
@@ -146,4 +146,4 @@ def test_a_cam_posts_arcs_starting_on_an_axis_have_their_turns_left_unworked():
         arcs = [Arc.through((m.x0, m.z0), (m.x1, m.z1), (m.xc, m.zc), bool(m.cw))
                 for step in interpret_source(source) for m in step.moves if m.kind == "arc"]
     assert len(arcs) == 2 and all(arc.r1 is not None and arc.reversal_params() for arc in arcs)
-    assert _unseen_turns(arcs, np.full(2, 0.001)).all()
+    assert _unseen_turns(arcs, np.array([(0.0005, 0.001)] * 2)).all()
