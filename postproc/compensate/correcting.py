@@ -245,48 +245,52 @@ class Correcting:
         given = [shift for shift in shifts if shift is not None]
         if not given:
             return
-        # the largest correction of each corrected piece, and every target's points, in one pass each
-        starts = np.cumsum([0] + [len(shift) for shift in given[:-1]])
-        joined = np.concatenate(given) if len(given) > 1 else given[0]
-        sizes = iter(np.maximum.reduceat(np.hypot(joined[:, 0], joined[:, 1]), starts).tolist())
         rows = [len(piece.t) for piece in every]
-        wanted_d = [np.zeros((n, 2)) if shift is None else shift for shift, n in zip(shifts, rows)]
-        ends = list(accumulate(rows))
-        points = np.concatenate([piece.points for piece in every]) + np.concatenate(wanted_d)
+        bounds = list(accumulate(rows, initial=0))  # piece i's rows: bounds[i]:bounds[i + 1]
+        # the largest correction of each corrected piece, and every target's points, in one pass each
+        joined = np.concatenate(given) if len(given) > 1 else given[0]
+        starts = np.cumsum([0] + [len(shift) for shift in given[:-1]])
+        sizes = iter(np.maximum.reduceat(np.hypot(joined[:, 0], joined[:, 1]), starts).tolist())
+        if len(given) == len(shifts):  # every piece corrected, as a model of the machine corrects them
+            wanted_d = shifts
+        else:
+            wanted_d = [np.zeros((n, 2)) if shift is None else shift for shift, n in zip(shifts, rows)]
+            joined = np.concatenate(wanted_d)
+        points = np.concatenate([piece.points for piece in every]) + joined
         limit = self.max_correction
         first = 0
         lines: list[Target] = []  # the straight targets, for measure_bends
         for entry, index, parts in wanted:
             last = first + len(parts)
-            if shifts[first] is None and (last == first + 1 or all(shifts[i] is None for i in range(first, last))):
-                first = last
-                continue
-            targets, largest = [], 0.0
+            largest = -1.0  # no piece corrected
             for i in range(first, last):
-                piece = parts[i - first]
                 if shifts[i] is not None:
                     size = next(sizes)
                     if size > limit and entry.refusal is None:  # raised in program order
                         entry.refusal = SafetyError(f"a correction of {size:.4f} mm exceeds the maximum correction "
                                                     f"{limit:g} mm (--max-correction)",
-                                                    Location(self.file, piece.move.line))
+                                                    Location(self.file, parts[i - first].move.line))
                     if size > largest:
                         largest = size
-                target = Target(piece.segment, piece.t, wanted_d[i])
-                target.__dict__["points"] = points[ends[i] - rows[i] : ends[i]]  # Target.along's, in one pass
-                targets.append(target)
-            first = last
-            moved = largest > 0.0
-            if moved and (entry.kept or (entry.step.block.fields is None and self._macro_kept(entry))):
+            if largest <= 0.0:  # none corrected, or none moved
+                first = last
+                continue
+            if entry.kept or (entry.step.block.fields is None and self._macro_kept(entry)):
+                first = last
                 continue  # left as it is: its correction is not applied (a canonical block reads no macro variable)
             if largest > self.largest:
                 self.largest = largest
-            if moved:
-                if len(targets) > 1:
-                    targets = _merge_continuous(targets, self._tolerance(entry.step) / 10.0)
-                entry.edits[index] = Edit(parts[0].move, targets)
-                if type(targets[0].nominal) is Line:
-                    lines.append(targets[0])
+            targets = []
+            for i, piece in enumerate(parts, first):
+                target = Target(piece.segment, piece.t, wanted_d[i])
+                target.__dict__["points"] = points[bounds[i] : bounds[i + 1]]  # Target.along's, in one pass
+                targets.append(target)
+            first = last
+            if len(targets) > 1:
+                targets = _merge_continuous(targets, self._tolerance(entry.step) / 10.0)
+            entry.edits[index] = Edit(parts[0].move, targets)
+            if type(targets[0].nominal) is Line:
+                lines.append(targets[0])
         measure_bends(lines)
 
     def _arcs_of(self, motions: list[Entry]) -> dict[int, tuple[Arc, list[float]]]:
