@@ -33,9 +33,9 @@ def sample_lines(parts: list[Piece]) -> None:
     if not straight:
         return
     counts = [len(piece.t) for piece in straight]
-    lines = [piece.segment for piece in straight]
-    start = np.repeat(np.array([(line.x0, line.z0) for line in lines]), counts, axis=0)
-    delta = np.repeat(np.array([(line.x1 - line.x0, line.z1 - line.z0) for line in lines]), counts, axis=0)
+    ends = np.array([(line.x0, line.z0, line.x1, line.z1) for line in [piece.segment for piece in straight]])
+    start = np.repeat(ends[:, :2], counts, axis=0)
+    delta = np.repeat(ends[:, 2:] - ends[:, :2], counts, axis=0)  # x1 - x0, z1 - z0: the same subtractions
     points = start + np.concatenate([piece.t for piece in straight])[:, None] * delta
     points.setflags(write=False)
     first = 0
