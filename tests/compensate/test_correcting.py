@@ -62,16 +62,27 @@ def _bulge(parts):
                              1e-3 * np.cos(piece.points[:, 0]) - 2e-4 * piece.z_direction]) for piece in parts]
 
 
+def _everywhere(parts):
+    """A correction of every piece, none of them still: as a model of the machine corrects."""
+    return [np.column_stack([1e-3 * np.sin(piece.points[:, 1]) + 2e-4 * piece.x_direction,
+                             1e-3 * np.cos(piece.points[:, 0]) - 2e-4 * piece.z_direction]) for piece in parts]
+
+
+def _still(parts):
+    """Corrections of nothing but zeros (a move asked and left where it is) and of None."""
+    return [None if piece.move.line % 2 else np.zeros((len(piece.t), 2)) for piece in parts]
+
+
 move = st.tuples(st.sampled_from(["line", "arc"]), st.floats(-20, 20), st.floats(-20, 20),
                  st.floats(-3.0, 3.0).filter(lambda turn: abs(turn) > 0.01))
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(st.lists(move, min_size=1, max_size=25))
-def test_a_batch_gives_every_move_the_pieces_and_targets_it_gets_alone(moves):
+@given(st.lists(move, min_size=1, max_size=25), st.sampled_from([_bulge, _everywhere, _still]))
+def test_a_batch_gives_every_move_the_pieces_and_targets_it_gets_alone(moves, corrector):
     with Source.from_text(_program(moves), "t.nc") as source:
         steps = list(interpret_source(source))
-    rewriter = Rewriter(iter(()), _bulge, DEFAULT, Request(tolerance=0.001), Reporter(), "t.nc")
+    rewriter = Rewriter(iter(()), corrector, DEFAULT, Request(tolerance=0.001), Reporter(), "t.nc")
     batch = [Entry(step) for step in steps]
     rewriter._correct(batch)
     last = (0, 0)
@@ -82,8 +93,8 @@ def test_a_batch_gives_every_move_the_pieces_and_targets_it_gets_alone(moves):
             edit = entry.edits[index] if entry.edits else None
             if one.kind in ("line", "arc") and (one.kind == "arc" or (one.x0, one.z0) != (one.x1, one.z1)):
                 parts = pieces(one, last, steps_mm)  # the move alone: its own arc and turns
-                shifts = _bulge(parts)
-                if all(shift is None for shift in shifts):
+                shifts = corrector(parts)
+                if all(shift is None or not shift.any() for shift in shifts):
                     assert edit is None
                 else:
                     alone = [Target.along(piece.segment, piece.t, np.zeros((len(piece.t), 2)) if shift is None
@@ -94,6 +105,7 @@ def test_a_batch_gives_every_move_the_pieces_and_targets_it_gets_alone(moves):
                         assert mine.nominal == theirs.nominal
                         assert np.array_equal(mine.t, theirs.t) and np.array_equal(mine.d, theirs.d)
                         assert np.array_equal(mine.points, theirs.points)
+                        assert mine.bend == theirs.bend
             last = travel_after(one, last, steps_mm)
     assert rewriter._last_travel == last
 
