@@ -13,7 +13,7 @@ from itertools import accumulate
 import numpy as np
 
 from ..diagnostics import Location, SafetyError
-from ..geometry import Arc, Line, Segment, reversal_params_of, segment_of
+from ..geometry import QUADRANTS, Arc, Line, Segment, reversal_params_of, segment_of
 from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
 from . import monotone
 from .compensator import Piece
@@ -23,6 +23,7 @@ from .segmenter import Target, measure_bends, sample_params
 STEPS = (0.0005, 0.001)  #: the output grid's x and z steps (radius mm) of a metric diameter program
 _ALONG = (RUN, CONTOUR, CORNER)  #: the roles of the moves that run along the program
 _TRAVELLED = (LINE, ARC, RAPID)  #: the kinds of move whose travel :func:`travel_after` follows
+_QUARTER_TURNS = np.array(QUADRANTS) * (math.pi / 2)  #: where an axis of a circle reverses, radians
 
 
 def sample_lines(parts: list[Piece]) -> None:
@@ -32,13 +33,38 @@ def sample_lines(parts: list[Piece]) -> None:
     if not straight:
         return
     counts = [len(piece.t) for piece in straight]
-    lines = [piece.segment for piece in straight]
-    start = np.repeat(np.array([(line.x0, line.z0) for line in lines]), counts, axis=0)
-    delta = np.repeat(np.array([(line.x1 - line.x0, line.z1 - line.z0) for line in lines]), counts, axis=0)
+    ends = np.array([(line.x0, line.z0, line.x1, line.z1) for line in [piece.segment for piece in straight]])
+    start = np.repeat(ends[:, :2], counts, axis=0)
+    delta = np.repeat(ends[:, 2:] - ends[:, :2], counts, axis=0)  # x1 - x0, z1 - z0: the same subtractions
     points = start + np.concatenate([piece.t for piece in straight])[:, None] * delta
     points.setflags(write=False)
     first = 0
     for piece, count in zip(straight, counts):
+        piece.__dict__["points"] = points[first : first + count]  # what the cached property would compute
+        first += count
+
+
+def sample_arcs(parts: list[Piece]) -> None:
+    """Sample the points of every arc piece in one array pass (``Arc.point_at``'s arithmetic,
+    point for point, a spiral's radius drifting with the parameter): a CAM program has
+    thousands of short arcs, and numpy called per arc was most of their cost."""
+    arcs = [piece for piece in parts if type(piece.segment) is Arc and "points" not in piece.__dict__]
+    if not arcs:
+        return
+    counts = [len(piece.t) for piece in arcs]
+    segments = [piece.segment for piece in arcs]
+    t = np.concatenate([piece.t for piece in arcs])
+    theta0, sweep, r, drift, xc, zc = np.repeat(np.array(
+        [(arc.theta0, arc.sweep, arc.r, 0.0 if arc.r1 is None else arc.r1 - arc.r, arc.xc, arc.zc) for arc in segments]),
+        counts, axis=0).T
+    theta = theta0 + t * sweep
+    radius = r + t * drift  # radius_at's: r + 0.0 is r on a circle
+    points = np.empty((len(t), 2))
+    points[:, 0] = xc + radius * np.cos(theta)
+    points[:, 1] = zc + radius * np.sin(theta)
+    points.setflags(write=False)
+    first = 0
+    for piece, count in zip(arcs, counts):
         piece.__dict__["points"] = points[first : first + count]  # what the cached property would compute
         first += count
 
@@ -199,8 +225,6 @@ class Correcting:
                     if (open_ and kind != RAPID and (kind == ARC or (move.x0, move.z0) != (move.x1, move.z1))
                             and selects(step, move)):  # _candidate's
                         segment = Line(move.x0, move.z0, move.x1, move.z1)  # pieces': one, moving as it leaves
-
-                        segment = Line(move.x0, move.z0, move.x1, move.z1)
                         wanted.append((entry, index, [Piece(move, segment, sample_params(segment), *after)]))
                     last = after
                     continue
@@ -216,58 +240,65 @@ class Correcting:
         """The corrections of the wanted moves' pieces, in one call, and the edits they make."""
         every = [piece for _, _, parts in wanted for piece in parts]
         sample_lines(every)
+        sample_arcs(every)
         shifts = self.corrector(every)
         given = [shift for shift in shifts if shift is not None]
         if not given:
             return
-        # the largest correction of each corrected piece, and every target's points, in one pass each
-        starts = np.cumsum([0] + [len(shift) for shift in given[:-1]])
-        joined = np.concatenate(given) if len(given) > 1 else given[0]
-        sizes = iter(np.maximum.reduceat(np.hypot(joined[:, 0], joined[:, 1]), starts).tolist())
         rows = [len(piece.t) for piece in every]
-        wanted_d = [np.zeros((n, 2)) if shift is None else shift for shift, n in zip(shifts, rows)]
-        ends = list(accumulate(rows))
-        points = np.concatenate([piece.points for piece in every]) + np.concatenate(wanted_d)
+        bounds = list(accumulate(rows, initial=0))  # piece i's rows: bounds[i]:bounds[i + 1]
+        # the largest correction of each corrected piece, and every target's points, in one pass each
+        joined = np.concatenate(given) if len(given) > 1 else given[0]
+        starts = np.cumsum([0] + [len(shift) for shift in given[:-1]])
+        sizes = iter(np.maximum.reduceat(np.hypot(joined[:, 0], joined[:, 1]), starts).tolist())
+        if len(given) == len(shifts):  # every piece corrected, as a model of the machine corrects them
+            wanted_d = shifts
+        else:
+            wanted_d = [np.zeros((n, 2)) if shift is None else shift for shift, n in zip(shifts, rows)]
+            joined = np.concatenate(wanted_d)
+        points = np.concatenate([piece.points for piece in every]) + joined
         limit = self.max_correction
         first = 0
         lines: list[Target] = []  # the straight targets, for measure_bends
         for entry, index, parts in wanted:
             last = first + len(parts)
-            if shifts[first] is None and (last == first + 1 or all(shifts[i] is None for i in range(first, last))):
-                first = last
-                continue
-            targets, largest = [], 0.0
+            largest = -1.0  # no piece corrected
             for i in range(first, last):
-                piece = parts[i - first]
                 if shifts[i] is not None:
                     size = next(sizes)
                     if size > limit and entry.refusal is None:  # raised in program order
                         entry.refusal = SafetyError(f"a correction of {size:.4f} mm exceeds the maximum correction "
                                                     f"{limit:g} mm (--max-correction)",
-                                                    Location(self.file, piece.move.line))
+                                                    Location(self.file, parts[i - first].move.line))
                     if size > largest:
                         largest = size
-                target = Target(piece.segment, piece.t, wanted_d[i])
-                target.__dict__["points"] = points[ends[i] - rows[i] : ends[i]]  # Target.along's, in one pass
-                targets.append(target)
-            first = last
-            moved = largest > 0.0
-            if moved and (entry.kept or (entry.step.block.fields is None and self._macro_kept(entry))):
+            if largest <= 0.0:  # none corrected, or none moved
+                first = last
+                continue
+            if entry.kept or (entry.step.block.fields is None and self._macro_kept(entry)):
+                first = last
                 continue  # left as it is: its correction is not applied (a canonical block reads no macro variable)
             if largest > self.largest:
                 self.largest = largest
-            if moved:
-                if len(targets) > 1:
-                    targets = _merge_continuous(targets, self._tolerance(entry.step) / 10.0)
-                entry.edits[index] = Edit(parts[0].move, targets)
-                if type(targets[0].nominal) is Line:
-                    lines.append(targets[0])
+            targets = []
+            for i, piece in enumerate(parts, first):
+                target = Target(piece.segment, piece.t, wanted_d[i])
+                target.__dict__["points"] = points[bounds[i] : bounds[i + 1]]  # Target.along's, in one pass
+                targets.append(target)
+            first = last
+            if len(targets) > 1:
+                targets = _merge_continuous(targets, self._tolerance(entry.step) / 10.0)
+            entry.edits[index] = Edit(parts[0].move, targets)
+            if type(targets[0].nominal) is Line:
+                lines.append(targets[0])
         measure_bends(lines)
 
     def _arcs_of(self, motions: list[Entry]) -> dict[int, tuple[Arc, list[float]]]:
         """The arc of every arc move of the batch's motion steps and its :func:`_turns` (by ``id``
         of the move), their reversal parameters found in one array pass: :func:`pieces` and
-        :func:`travel_after` both need them, for every arc of the program."""
+        :func:`travel_after` both need them, for every arc of the program. An arc whose every
+        reversal lies where :func:`_turns` cannot keep it (:func:`_unseen_turns`) has none, its
+        reversal parameters left unworked."""
         arcs: list[Arc] = []
         owners: list[tuple[Move, tuple[float, float]]] = []
         for entry in motions:
@@ -276,8 +307,54 @@ class Correcting:
                 if move.kind == ARC and move.xc is not None and move.known and move.exact:
                     arcs.append(segment_of(move))
                     owners.append((move, steps))
-        return {id(move): (arc, _turns(arc, steps, found))
-                for (move, steps), arc, found in zip(owners, arcs, reversal_params_of(arcs))}
+        if not arcs:
+            return {}
+        unseen = _unseen_turns(arcs, np.array([steps for _, steps in owners])).tolist()
+        seen = iter(reversal_params_of([arc for arc, none in zip(arcs, unseen) if not none]))
+        return {id(move): (arc, [] if none else _turns(arc, steps, next(seen)))
+                for (move, steps), arc, none in zip(owners, arcs, unseen)}
+
+
+def _unseen_turns(arcs: list[Arc], steps: np.ndarray) -> np.ndarray:
+    """Whether each arc's reversals all lie where :func:`_turns` keeps none of them (``steps``:
+    each arc's grid steps in x and z, mm, one row per arc): worked out for all the arcs in one
+    array pass from bounds on where the reversals lie, False where the bounds cannot tell.
+
+    A spiral moves an axis's apex off its quarter turn by ``atan(dr / (r |sweep|))`` along the
+    sweep: the way its radius drifts, never further than ``|dr| / (r |sweep|)``
+    (``reversal_params_of``'s reach; a micro-radian to spare either way). ``_turns`` keeps no reversal within one grid step of
+    either end (in parameter, ``step / length``), nor one the axis reaches from the end (or
+    leaves towards it) by less than half a step: the tool travels at most
+    ``|sweep| r_max + |dr|`` per unit of parameter, so nearer than that half step over this
+    speed no axis travels enough. A CAM program's arcs start on an axis (I or K zero) and their
+    radii drift by the rounding of the end point: each such arc has a reversal picometres past
+    its start, which no output grid sees."""
+    theta0 = np.array([arc.theta0 for arc in arcs])
+    sweep = np.array([arc.sweep for arc in arcs])
+    r = np.array([arc.r for arc in arcs])
+    end = np.array([arc.end_radius for arc in arcs])
+    span = np.abs(sweep)
+    drift = np.abs(end - r)
+    smallest = np.minimum(r, end)
+    length = span * (r + end) / 2.0  # Arc.length
+    speed = span * np.maximum(r, end) + drift
+    margin = 1e-9  # a parameter's rounding (to 12 places) and the arithmetic, with room to spare
+    sign = np.where(sweep >= 0, 1.0, -1.0)
+    along = np.remainder(sign[:, None] * (_QUARTER_TURNS[None, :] - theta0[:, None]), math.tau)
+    with np.errstate(all="ignore"):  # no sweep, no radius, no length: an infinite reach, an empty stretch
+        reach = drift / (smallest * span)
+        reach = np.where(np.isfinite(reach) & (smallest > 0.0), reach, math.inf)
+        back = np.where(end < r, reach, 0.0)[:, None] + 1e-6  # a shrinking radius: the apex comes earlier
+        ahead = np.where(end > r, reach, 0.0)[:, None] + 1e-6
+        shortest = np.where(length > 0.0, steps.max(axis=1) / length, math.inf)
+        travel = np.where(speed > 0.0, steps.min(axis=1) / 2.0 * (1.0 - 1e-6) / speed, math.inf)
+        edge = np.maximum(shortest, travel) - margin  # in parameter, from either end
+        low = (edge * span)[:, None]  # along the sweep, below it: too near the start
+        high = ((1.0 - edge) * span)[:, None]  # above it: too near the end
+        bottom, top = along - back, along + ahead
+        near_start = (top < low) & ((bottom >= 0.0) | (bottom + math.tau > high))
+        near_end = (bottom > high) & ((top <= math.tau) | (top - math.tau < low))
+    return (near_start | near_end).all(axis=1) | (span == 0.0)
 
 
 def _merge_continuous(targets: list[Target], gap: float) -> list[Target]:
