@@ -295,7 +295,7 @@ from postproc.cli.main import main
 try:
     main()
 except SystemExit as stop:
-    print(stop.code, gc.get_freeze_count() > 0)
+    print(stop.code, gc.get_freeze_count() > 0, gc.get_threshold())
 """
 
 
@@ -306,13 +306,17 @@ def test_a_compensation_in_its_own_process_freezes_what_it_built_and_a_callers_d
     import subprocess
     import sys
 
+    from postproc.cli.main import COLLECT_EVERY
+
+    thresholds = gc.get_threshold()
     model = _mixed_model(run, tmp_path)
     program = str(SAMPLES / "programs/hemishell.nc")
     assert run("compensate", program, "--model", model, "-o", str(tmp_path / "here.nc")).exit_code == 0
     assert gc.get_freeze_count() == 0
+    assert gc.get_threshold() == thresholds
     done = subprocess.run([sys.executable, "-c", AS_A_PROCESS, "compensate", program, "--model", model,
                            "-o", str(tmp_path / "own.nc")], capture_output=True, text=True)
-    assert done.stdout == "0 True\n", done.stderr
+    assert done.stdout == f"0 True {COLLECT_EVERY}\n", done.stderr
     assert (tmp_path / "own.nc").read_bytes() == (tmp_path / "here.nc").read_bytes()
 
 
