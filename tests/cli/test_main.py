@@ -290,34 +290,41 @@ def test_a_compensation_with_a_saved_model_imports_only_what_it_uses(run, tmp_pa
 #: A run as the console script starts it (``main()`` with no arguments reads ``sys.argv``), then
 #: whether the objects it built were frozen out of the garbage collector's reach.
 AS_A_PROCESS = """
-import gc, sys
+import gc, os, sys
 from postproc.cli.main import main
 try:
     main()
 except SystemExit as stop:
-    print(stop.code, gc.get_freeze_count() > 0, gc.get_threshold())
+    print(stop.code, gc.get_freeze_count() > 0, gc.get_threshold(), os.environ.get("OPENBLAS_NUM_THREADS"),
+          os.environ.get("MKL_NUM_THREADS"))
 """
 
 
-def test_a_compensation_in_its_own_process_freezes_what_it_built_and_a_callers_does_not(run, tmp_path):
-    """The collector leaves the imports and the loaded model alone in the command line's own
-    process (a small job's start), never in a caller's, whose objects must stay collectable."""
+def test_a_compensation_in_its_own_process_settles_its_collector_and_blas_and_a_callers_does_not(run, tmp_path):
+    """In the command line's own process the collector leaves the imports and the loaded model
+    alone and looks for cycles less often, and numpy's BLAS starts one thread (a small job's
+    start), unless the user set its variable; never in a caller's, whose objects must stay
+    collectable and whose collector and environment stay as it set them."""
     import gc
+    import os
     import subprocess
     import sys
 
-    from postproc.cli.main import COLLECT_EVERY
+    from postproc.cli.main import BLAS_THREADS, COLLECT_EVERY
 
-    thresholds = gc.get_threshold()
+    thresholds, environment = gc.get_threshold(), dict(os.environ)
     model = _mixed_model(run, tmp_path)
     program = str(SAMPLES / "programs/hemishell.nc")
     assert run("compensate", program, "--model", model, "-o", str(tmp_path / "here.nc")).exit_code == 0
-    assert gc.get_freeze_count() == 0
-    assert gc.get_threshold() == thresholds
-    done = subprocess.run([sys.executable, "-c", AS_A_PROCESS, "compensate", program, "--model", model,
-                           "-o", str(tmp_path / "own.nc")], capture_output=True, text=True)
-    assert done.stdout == f"0 True {COLLECT_EVERY}\n", done.stderr
-    assert (tmp_path / "own.nc").read_bytes() == (tmp_path / "here.nc").read_bytes()
+    assert (gc.get_freeze_count(), gc.get_threshold()) == (0, thresholds)
+    assert {name: os.environ.get(name) for name in BLAS_THREADS} == {name: environment.get(name) for name in BLAS_THREADS}
+    unset = {name: value for name, value in os.environ.items() if name not in BLAS_THREADS}
+    for env, threads in ((unset, "1 1"), (dict(unset, OPENBLAS_NUM_THREADS="3"), "3 1")):
+        out = tmp_path / f"own{threads[0]}.nc"
+        done = subprocess.run([sys.executable, "-c", AS_A_PROCESS, "compensate", program, "--model", model,
+                               "-o", str(out)], capture_output=True, text=True, env=env)
+        assert done.stdout == f"0 True {COLLECT_EVERY} {threads}\n", done.stderr
+        assert out.read_bytes() == (tmp_path / "here.nc").read_bytes()
 
 
 def test_check_and_an_identity_run_import_no_numpy(tmp_path):
