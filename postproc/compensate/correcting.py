@@ -33,15 +33,10 @@ def sample_lines(parts: list[Piece]) -> None:
     if not straight:
         return
     counts = [len(piece.t) for piece in straight]
-    ends = np.array([(line.x0, line.z0, line.x1, line.z1) for line in [piece.segment for piece in straight]])
+    ends = np.array([(piece.segment.x0, piece.segment.z0, piece.segment.x1, piece.segment.z1) for piece in straight])
     start = np.repeat(ends[:, :2], counts, axis=0)
     delta = np.repeat(ends[:, 2:] - ends[:, :2], counts, axis=0)  # x1 - x0, z1 - z0: the same subtractions
-    points = start + np.concatenate([piece.t for piece in straight])[:, None] * delta
-    points.setflags(write=False)
-    first = 0
-    for piece, count in zip(straight, counts):
-        piece.__dict__["points"] = points[first : first + count]  # what the cached property would compute
-        first += count
+    _hand_out(straight, counts, start + np.concatenate([piece.t for piece in straight])[:, None] * delta)
 
 
 def sample_arcs(parts: list[Piece]) -> None:
@@ -62,10 +57,16 @@ def sample_arcs(parts: list[Piece]) -> None:
     points = np.empty((len(t), 2))
     points[:, 0] = xc + radius * np.cos(theta)
     points[:, 1] = zc + radius * np.sin(theta)
+    _hand_out(arcs, counts, points)
+
+
+def _hand_out(pieces: list[Piece], counts: list[int], points: np.ndarray) -> None:
+    """Give each piece its rows of the points sampled for them all (read-only), as its
+    ``points`` cached property would compute them."""
     points.setflags(write=False)
     first = 0
-    for piece, count in zip(arcs, counts):
-        piece.__dict__["points"] = points[first : first + count]  # what the cached property would compute
+    for piece, count in zip(pieces, counts):
+        piece.__dict__["points"] = points[first : first + count]
         first += count
 
 

@@ -288,7 +288,8 @@ def test_a_compensation_with_a_saved_model_imports_only_what_it_uses(run, tmp_pa
 
 
 #: A run as the console script starts it (``main()`` with no arguments reads ``sys.argv``), then
-#: whether the objects it built were frozen out of the garbage collector's reach.
+#: whether the objects it built were frozen out of the garbage collector's reach, the collector's
+#: thresholds and the BLAS thread counts asked for.
 AS_A_PROCESS = """
 import gc, os, sys
 from postproc.cli.main import main
