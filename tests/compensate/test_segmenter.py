@@ -37,10 +37,12 @@ def brute_deviation(target: Target, cuts, spacing=0.002) -> float:
         keep = np.concatenate([[True], np.any(np.diff(polyline, axis=0) != 0, axis=1)])
         polyline = polyline[keep]  # a vertex shared by two cuts appears once
         segments = len(polyline) - 1
-        if segments > 1 and np.array_equal(polyline[0], polyline[-1]):
-            # a closed path (a whole circle): its seam vertex is searched once, and the segments
-            # on both sides of it are its neighbours, so a point just before the seam is measured
-            # to the last segment rather than to the first one's far end
+        if segments > 1 and np.abs(polyline[0] - polyline[-1]).max() <= 1e-9:
+            # a closed path (a whole circle; a target's ends, worked out at 0 and 2 pi, may differ
+            # in the last bit): its seam vertex is searched once, and the segments on both sides of
+            # it are its neighbours, so a point just before the seam is measured to the last
+            # segment rather than to the first one's far end
+            polyline[-1] = polyline[0]
             _, nearest = cKDTree(polyline[:-1]).query(points)
             beside = lambda offset: (nearest + offset) % segments
         else:
@@ -241,6 +243,7 @@ def _uncorrected_circle(radius: float, start: float, sweep: float) -> Target:
 @settings(max_examples=8, deadline=None)
 @given(whole_circle_targets(), st.sampled_from([0.001, 0.01]))
 @example(_uncorrected_circle(12.0, math.radians(19.0), -2.0 * math.pi), 0.001)  # its seam once read 1.8 um off
+@example(_uncorrected_circle(12.0, 0.9075712110370514, 2.0 * math.pi), 0.001)  # ends a bit apart: read 1.9 um off
 def test_a_whole_circle_in_one_block_is_planned_within_tolerance_in_every_mode(target, tolerance):
     """Its ends are one point: no arc or chord between them follows it, so it is planned as two
     halves; never refused as a move shorter than the grid. (The segmenter's own measure follows
