@@ -18,7 +18,7 @@ from ..geometry import segment_of
 from ..interpret import gcodes as G
 from ..interpret.motion import ARC, CONTOUR, CORNER, RAPID, RUN, Move, Step
 from ..syntax.blocks import Block, Word
-from .segmenter import Cut, Plan, Target, sample_params
+from .segmenter import Cut, Limits, Plan, Target, sample_params
 
 #: What becomes of a block whose geometry words read macro variables (``X[#504+6.]``) when it
 #: would be rewritten: the run is refused (the default), it is left uncompensated, or its values
@@ -40,6 +40,8 @@ class Edit:
     spans: list[tuple[int, int]] = field(default_factory=list)  #: each plan's cuts in the block's cut list
     #: target index -> the target as corrected, before a cycle's one-way rule held it
     held: dict[int, Target] = field(default_factory=dict)
+    #: target index -> (the target, its limits, its plan) when planned with its batch (:mod:`.single_arcs`)
+    presolved: dict[int, tuple[Target, Limits, Plan]] = field(default_factory=dict)
 
     @property
     def start(self) -> tuple[float, float]:

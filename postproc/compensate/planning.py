@@ -15,8 +15,11 @@ from ..diagnostics import Location, UnplannableBlock
 from ..interpret.motion import ARC, LINE, RAPID, Step
 from ..machine.resolution import Grid
 from . import monotone
-from .edits import BLOCK_TIME, INTERFERENCE, Entry, _as_it_is, _one_block_for_other_axes, _rounded_up, _where
-from .segmenter import RADIUS_CHECK, RESOLUTION, TOLERANCE, Cut, Limits, Plan, PlanError, Segmenter, Target, plan
+from ..geometry import Arc
+from .edits import BLOCK_TIME, INTERFERENCE, Edit, Entry, _as_it_is, _one_block_for_other_axes, _rounded_up, _where
+from .segmenter import (LINE_MODE, RADIUS_CHECK, RESOLUTION, TOLERANCE, Cut, Limits, Plan, PlanError, Segmenter, Target,
+                        plan)
+from .single_arcs import single_arcs
 
 _REMEDIES = {
     RESOLUTION: "more decimals (output_decimals_mm, output_decimals_inch in the machine profile) if the control's "
@@ -42,7 +45,8 @@ class Planning:
                 if edit is None and move.kind != RAPID:  # written out, for it shares the block with a change
                     edit = entry.edits[index] = _as_it_is(move)
                 if edit is not None:
-                    edit.plans = [self._plan(step, target, edit.held.get(i)) for i, target in enumerate(edit.targets)]
+                    edit.plans = [self._plan(step, target, edit.held.get(i), edit.presolved.get(i))
+                                  for i, target in enumerate(edit.targets)]
             if entry.moving is not None:  # the count matters only to a block that moves another axis too
                 _one_block_for_other_axes(entry, sum(len(plan.cuts) for edit in entry.edits if edit is not None
                                                      for plan in edit.plans), self.file)
@@ -54,14 +58,46 @@ class Planning:
             self.unplannable.append((step.block.line, exc.limit))
             self.reporter.warn(f"block left uncompensated (--keep-unplannable): {exc.cause}", exc.location)
 
-    def _plan(self, step: Step, target: Target, corrected: Target | None = None) -> Plan:
+    def _presolve(self, batch: list[Entry]) -> None:
+        """The one-arc plans of the batch's arc targets, worked out together (:mod:`.single_arcs`),
+        kept with each edit for :meth:`_plan`: a CAM program's arcs, one by one, are most of
+        the planning's time."""
+        if self.request.mode == LINE_MODE:
+            return
+        slots: list[tuple[Edit, int]] = []
+        targets: list[Target] = []
+        limits: list[Limits] = []
+        for entry in batch:
+            if not entry.motion:
+                continue
+            for edit in entry.edits:
+                if edit is None:
+                    continue
+                for index, target in enumerate(edit.targets):
+                    if type(target.nominal) is Arc:
+                        slots.append((edit, index))
+                        targets.append(target)
+                        limits.append(self._limits_for(entry.step))
+        if not targets:
+            return
+        for (edit, index), target, within, found in zip(slots, targets, limits, single_arcs(targets, limits)):
+            if found is not None:
+                edit.presolved[index] = (target, within, found)
+
+    def _plan(self, step: Step, target: Target, corrected: Target | None = None,
+              presolved: tuple[Target, Limits, Plan] | None = None) -> Plan:
         """The blocks for a target. ``corrected``: the target as corrected, before a cycle's
         one-way rule held it; the blocks must keep within the tolerance of that one too. They
         usually do when planned for the held target (a held point often slides along the
-        path); if not, they are planned within what the holding left of the tolerance."""
+        path); if not, they are planned within what the holding left of the tolerance.
+        ``presolved``: its plan as :meth:`_presolve` found it, used while the target and its
+        limits are the ones it was found for."""
         limits = self._limits_for(step)
         try:
-            result = plan(target, limits, self.request.mode)
+            if presolved is not None and presolved[0] is target and presolved[1] is limits:
+                result = presolved[2]
+            else:
+                result = plan(target, limits, self.request.mode)
             if corrected is not None and not self._holds(result.cuts, corrected, limits):
                 held = monotone.off_path(target.points, corrected.points)
                 limits = self._limits_for(step, held)

@@ -205,12 +205,14 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
                 batch.append(entry)
                 if len(batch) == BATCH:
                     self._correct(batch)
+                    self._presolve(batch)
                     yield batch
                     batch = []
         except PostprocError as exc:  # the blocks before it are written first: an error there comes first
             alarm = exc
         if batch:
             self._correct(batch)
+            self._presolve(batch)
             yield batch
         if alarm is not None:
             raise alarm

@@ -1,0 +1,174 @@
+"""Single-arc plans of many targets at once: each one the segmenter's own plan, float for float,
+or none (the segmenter then plans the target alone); and a program compensated with them is
+byte for byte the program compensated without them."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from support import SAMPLES
+from postproc.api import Pipeline
+from postproc.compensate import planning
+from postproc.compensate.models import dumps
+from postproc.compensate.segmenter import Limits, Target, plan, sample_params
+from postproc.compensate.single_arcs import single_arcs
+from postproc.diagnostics import Reporter
+from postproc.geometry import Arc, Line
+from postproc.machine.profile import DEFAULT
+from postproc.machine.resolution import Grid
+
+GRIDS = [Grid(3, False, True), Grid(4, False, True), Grid(3, False, False), Grid(4, True, True), Grid(5, True, False)]
+
+
+def cam_arc(grid: Grid, x0: float, z0: float, radius: float, start: float, sweep: float, drift: float) -> Arc:
+    """An arc as a CAM post writes it: its start on the grid, its centre a grid offset away."""
+    x0, z0 = grid.snap(x0, z0)
+    xc, zc = grid.snap(x0 - radius * math.cos(start), z0 - radius * math.sin(start))
+    xc = x0 + grid.snap_offset(xc - x0)
+    zc = z0 + grid.snap_offset(zc - z0)
+    r = math.hypot(x0 - xc, z0 - zc)
+    theta0 = math.atan2(z0 - zc, x0 - xc)
+    return Arc(xc, zc, r, theta0, sweep, None if drift == 0.0 else r + drift)
+
+
+def displaced(arc: Arc, scale: tuple[float, float], offset: tuple[float, float], wave: float, turns: int) -> Target:
+    """What a model of the machine asks along an arc: a displacement that grows with the position
+    (scaling), an offset (backlash, a probe's offset) and a wave (a servo's mismatch)."""
+    t = sample_params(arc)
+    points = arc.point_at(t)
+    d = points * np.array(scale) + np.array(offset)
+    d += wave * np.sin(turns * math.pi * t)[:, None] * (points - np.array(arc.centre)) / arc.r
+    return Target(arc, t, d)
+
+
+@st.composite
+def cam_targets(draw):
+    grid = draw(st.sampled_from(GRIDS))
+    radius = draw(st.floats(0.2, 300.0))
+    sweep = math.radians(draw(st.floats(0.5, 355.0))) * draw(st.sampled_from([1, -1]))
+    start = draw(st.sampled_from([0.0, math.pi / 2, math.pi, -math.pi / 2])) + draw(
+        st.sampled_from([0.0, 0.0, draw(st.floats(-math.pi, math.pi))]))
+    drift = draw(st.sampled_from([0.0, 0.0, draw(st.floats(-0.002, 0.002))]))
+    arc = cam_arc(grid, draw(st.floats(0.0, 150.0)), draw(st.floats(-300.0, 10.0)), radius, start, sweep, drift)
+    scale = (draw(st.floats(-3e-4, 3e-4)), draw(st.floats(-3e-4, 3e-4)))
+    offset = (draw(st.floats(-0.015, 0.015)), draw(st.floats(-0.015, 0.015)))
+    target = displaced(arc, scale, offset, draw(st.sampled_from([0.0, draw(st.floats(0.0, 0.01))])), draw(st.integers(1, 4)))
+    tolerance = draw(st.sampled_from([0.0005, 0.001, 0.002, 0.005, 0.00508]))  # mm, whatever the grid's units
+    radius_tolerance = draw(st.sampled_from([DEFAULT.arc_radius_tolerance, 0.002, 1e-4]))
+    return target, Limits(tolerance, grid, radius_tolerance, DEFAULT.max_arc_radius)
+
+
+def same_plan(found, expected) -> bool:
+    """The same cuts (to the bit, signs of zero included) and the same measured deviation."""
+    return (expected.method == found.method == "arc" and repr(found.cuts) == repr(expected.cuts)
+            and found.deviation == expected.deviation and not found.widened)
+
+
+def check(targets: list[Target], limits: list[Limits]) -> int:
+    """Each target's plan from the batch is the segmenter's, in AUTO and ARC mode; the count found."""
+    found = single_arcs(targets, limits)
+    for target, within, plan_found in zip(targets, limits, found):
+        if plan_found is None:
+            continue
+        for mode in ("auto", "arc"):
+            assert same_plan(plan_found, plan(target, within, mode))
+    return sum(plan_found is not None for plan_found in found)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(cam_targets(), min_size=1, max_size=6))
+def test_each_plan_found_together_is_the_segmenter_s_own_bit_for_bit(cases):
+    check([target for target, _ in cases], [limits for _, limits in cases])
+
+
+def test_most_arcs_of_a_cam_program_are_planned_together_as_the_segmenter_plans_them():
+    """Not a test that passes by finding nothing: of arcs a CAM post writes, moved as a model of a
+    machine moves them, most are planned together, and each plan is the segmenter's."""
+    rng = np.random.default_rng(7)
+    targets, limits = [], []
+    for _ in range(300):
+        grid = GRIDS[int(rng.integers(len(GRIDS)))]
+        arc = cam_arc(grid, rng.uniform(0, 80), rng.uniform(-150, 0), rng.uniform(0.5, 60),
+                      rng.choice([0.0, math.pi / 2, math.pi, -math.pi / 2]),
+                      math.radians(rng.uniform(10, 180)) * rng.choice([1, -1]), 0.0)
+        targets.append(displaced(arc, tuple(rng.uniform(-2e-4, 2e-4, 2)), tuple(rng.uniform(-0.01, 0.01, 2)), 0.0, 1))
+        limits.append(Limits(0.001, grid))
+    assert check(targets, limits) >= 200
+
+
+def test_targets_planned_another_way_are_left_to_the_segmenter():
+    """A whole circle, a line, a target of two samples and an arc so flat a line may follow it."""
+    grid = GRIDS[0]
+    circle = Arc(0.0, 0.0, 10.0, 0.3, 2.0 * math.pi)
+    flat = Arc(0.0, -1000.0, 1000.0, math.pi / 2, -0.0001)
+    line = Line(10.0, 0.0, 12.0, -5.0)
+    two = Arc(0.0, 0.0, 5.0, 0.0, 1.0)
+    targets = [Target(segment, sample_params(segment), np.zeros((len(sample_params(segment)), 2)))
+               for segment in (circle, flat, line)]
+    targets.append(Target(two, np.array([0.0, 1.0]), np.zeros((2, 2))))
+    assert single_arcs(targets, [Limits(0.001, grid)] * len(targets)) == [None] * len(targets)
+    assert single_arcs([], []) == []
+
+
+FILLETS = """%
+O0100 (SHAFT: FILLETS AND TAPERS, AS A CAM POST WRITES THEM)
+G18 G21 G40 G99
+T0101
+G50 S3000
+G96 S180 M03
+G00 X62. Z2. M08
+{body}G00 X100. Z50.
+M30
+%
+"""
+
+
+def fillet_program(count: int) -> str:
+    """A shaft turned in steps, each corner a fillet written with I and K."""
+    lines, x, z = [], 20.0, 0.0
+    lines.append(f"G01 X{x:.3f} Z{z:.3f} F0.2")
+    for k in range(count):
+        r = 0.5 + (k % 5)
+        lines.append(f"G01 Z{z - 4.0 - k % 3:.3f}")
+        z -= 4.0 + k % 3
+        lines.append(f"G02 X{x + 2 * r:.3f} Z{z - r:.3f} I{r:.3f} K0.")
+        x, z = x + 2 * r, z - r
+        lines.append(f"G01 X{x + 1.0:.3f} Z{z - 0.5:.3f}")
+        x, z = x + 1.0, z - 0.5
+        lines.append(f"G03 X{x + 2 * r:.3f} Z{z - r:.3f} I0. K{-r:.3f}")
+        x, z = x + 2 * r, z - r
+        if x > 120.0:
+            lines.append(f"G00 X{x + 2.0:.3f}\nG00 Z0.\nG00 X20.\nG01 Z0.")
+            x, z = 20.0, 0.0
+    return FILLETS.format(body="".join(line + "\n" for line in lines))
+
+
+@pytest.fixture(scope="module")
+def model(tmp_path_factory):
+    traces = [str(SAMPLES / "ballbar/v40r-100-ccw.csv"), str(SAMPLES / "ballbar/v40r-100-cw.csv")]
+    path = tmp_path_factory.mktemp("model") / "model.json"
+    fitted = Pipeline(plugins=["parametric"], ballbar=traces, options=["extrapolate=true"], reporter=Reporter())
+    path.write_text(dumps(fitted.core.saved_model()))
+    return str(path)
+
+
+@pytest.mark.parametrize("tolerance", [0.001, 0.002])
+def test_a_program_compensated_with_arcs_planned_together_is_the_same_byte_for_byte(model, monkeypatch, tolerance):
+    program = fillet_program(300)
+    together = []
+
+    def counted(targets, limits):
+        found = single_arcs(targets, limits)
+        together.extend(plan_found for plan_found in found if plan_found is not None)
+        return found
+
+    monkeypatch.setattr(planning, "single_arcs", counted)
+    text = Pipeline(model=model, tolerance=tolerance, reporter=Reporter()).compensate_text(program, "t.nc")
+    assert len(together) >= 300
+    monkeypatch.setattr(planning.Planning, "_presolve", lambda self, batch: None)
+    assert text == Pipeline(model=model, tolerance=tolerance, reporter=Reporter()).compensate_text(program, "t.nc")
