@@ -40,7 +40,7 @@ class Edit:
     spans: list[tuple[int, int]] = field(default_factory=list)  #: each plan's cuts in the block's cut list
     #: target index -> the target as corrected, before a cycle's one-way rule held it
     held: dict[int, Target] = field(default_factory=dict)
-    #: target index -> (the target, its limits, its plan) when planned with its batch (:mod:`.single_arcs`)
+    #: target index -> (the target, its limits, its plan) when planned with its batch (:mod:`.batch_plans`)
     presolved: dict[int, tuple[Target, Limits, Plan]] = field(default_factory=dict)
 
     @property

@@ -15,11 +15,10 @@ from ..diagnostics import Location, UnplannableBlock
 from ..interpret.motion import ARC, LINE, RAPID, Step
 from ..machine.resolution import Grid
 from . import monotone
-from ..geometry import Arc
 from .edits import BLOCK_TIME, INTERFERENCE, Edit, Entry, _as_it_is, _one_block_for_other_axes, _rounded_up, _where
 from .segmenter import (LINE_MODE, RADIUS_CHECK, RESOLUTION, TOLERANCE, Cut, Limits, Plan, PlanError, Segmenter, Target,
                         plan)
-from .single_arcs import single_arcs
+from .batch_plans import batch_plans
 
 _REMEDIES = {
     RESOLUTION: "more decimals (output_decimals_mm, output_decimals_inch in the machine profile) if the control's "
@@ -59,11 +58,9 @@ class Planning:
             self.reporter.warn(f"block left uncompensated (--keep-unplannable): {exc.cause}", exc.location)
 
     def _presolve(self, batch: list[Entry]) -> None:
-        """The one-arc plans of the batch's arc targets, worked out together (:mod:`.single_arcs`),
-        kept with each edit for :meth:`_plan`: a CAM program's arcs, one by one, are most of
-        the planning's time."""
-        if self.request.mode == LINE_MODE:
-            return
+        """The one-block plans of the batch's targets, worked out together (:mod:`.batch_plans`),
+        kept with each edit for :meth:`_plan`: a CAM program's moves, planned one by one, are
+        most of the planning's time."""
         slots: list[tuple[Edit, int]] = []
         targets: list[Target] = []
         limits: list[Limits] = []
@@ -73,16 +70,17 @@ class Planning:
             for edit in entry.edits:
                 if edit is None:
                     continue
+                within = self._limits_for(entry.step)
                 for index, target in enumerate(edit.targets):
-                    if type(target.nominal) is Arc:
-                        slots.append((edit, index))
-                        targets.append(target)
-                        limits.append(self._limits_for(entry.step))
+                    slots.append((edit, index))
+                    targets.append(target)
+                    limits.append(within)
         if not targets:
             return
-        for (edit, index), target, within, found in zip(slots, targets, limits, single_arcs(targets, limits)):
-            if found is not None:
-                edit.presolved[index] = (target, within, found)
+        found = batch_plans(targets, limits, arcs=self.request.mode != LINE_MODE)
+        for (edit, index), target, within, plan_found in zip(slots, targets, limits, found):
+            if plan_found is not None:
+                edit.presolved[index] = (target, within, plan_found)
 
     def _plan(self, step: Step, target: Target, corrected: Target | None = None,
               presolved: tuple[Target, Limits, Plan] | None = None) -> Plan:

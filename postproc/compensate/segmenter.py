@@ -346,30 +346,6 @@ class Plan:
     widened: bool = False  #: merged beyond the tolerance (to keep blocks long enough), with a warning
 
 
-class Chord(NamedTuple):
-    """The chord an arc cut spans: its ends on the grid, its middle, the unit normal across it
-    (from ``a`` towards its mirror end) and half its length."""
-
-    a: tuple[float, float]
-    b: tuple[float, float]
-    mid: tuple[float, float]
-    normal: tuple[float, float]
-    half: float
-
-
-def centre_steps(grid: Grid, a: tuple[float, float], centre: tuple[float, float]) -> tuple[float, float]:
-    """How many grid steps the I and K words from ``a`` to ``centre`` are, unrounded."""
-    step, _, unit = _grid_constants(grid)
-    return (centre[0] - a[0]) / unit / step, (centre[1] - a[1]) / unit / step
-
-
-def chord_cannot_follow(nominal: Arc, shift: float, tolerance: float, grid: Grid) -> bool:
-    """Whether a nominal arc bows away from its chord by more than the tolerance and a
-    displacement of at most ``shift`` with the rounding of both ends could make up."""
-    sagitta = min(nominal.r, nominal.end_radius) * (1.0 - math.cos(min(abs(nominal.sweep), math.pi) / 2.0))
-    return sagitta > tolerance + 2.0 * shift + 2.0 * grid.rounding_error
-
-
 def arc_cut_spacing(cut: Cut, spacing: float, tolerance: float, frame: float, frame_x: float, frame_z: float) -> float:
     """:meth:`Segmenter._spacing` of an arc cut, in a frame of curvature ``frame`` (0 along a
     line) about (``frame_x``, ``frame_z``), whose own spacing is ``spacing``."""
@@ -384,17 +360,22 @@ def arc_cut_spacing(cut: Cut, spacing: float, tolerance: float, frame: float, fr
     return math.sqrt(0.08 * tolerance / curvature)
 
 
+def chord_cannot_follow(nominal: Arc, shift: float, tolerance: float, grid: Grid) -> bool:
+    """Whether a nominal arc bows away from its chord by more than the tolerance and a
+    displacement of at most ``shift`` with the rounding of both ends could make up."""
+    sagitta = min(nominal.r, nominal.end_radius) * (1.0 - math.cos(min(abs(nominal.sweep), math.pi) / 2.0))
+    return sagitta > tolerance + 2.0 * shift + 2.0 * grid.rounding_error
+
+
 class Segmenter:
     """Plans one target; create one per target."""
 
-    def __init__(self, target: Target, limits: Limits, uv: tuple[np.ndarray, np.ndarray] | None = None):
-        """``uv``: the target's samples in its frame, when the caller has worked them out
-        (:mod:`.single_arcs` does, for many targets at once)."""
+    def __init__(self, target: Target, limits: Limits):
         self.target = target
         self.limits = limits
         self.grid = limits.grid
         self.frame = Frame(target.nominal)
-        self.u, self.v = self.frame.uv(target.points) if uv is None else uv
+        self.u, self.v = self.frame.uv(target.points)
         steps = self.u[1:] - self.u[:-1]
         self._backwards = (steps < -1e-9).nonzero()[0].tolist()  # k where u[k + 1] < u[k]
         self._rising = len(steps) > 0 and bool(steps[steps.argmin()] > 0.0)  # u strictly increases (NaN: no)
@@ -437,10 +418,6 @@ class Segmenter:
         """Deviation of one cut from the target samples i..j (and its end points; ``ends``: their
         larger distance from the cut's, when the caller has it)."""
         pu, pv = self.frame.path_uv(cut, self._spacing(cut))
-        return self._measured(pu, pv, cut, i, j, ends)
-
-    def _measured(self, pu: np.ndarray, pv: np.ndarray, cut: Cut, i: int, j: int, ends: float | None = None) -> float:
-        """:meth:`_measure` of a cut whose path (``pu``, ``pv`` across the frame) is sampled."""
         deviation = _deviation(self.u[i : j + 1], self.v[i : j + 1], pu, pv, self._graph(i, j), self._rising)
         if ends is None:
             ends = self._ends_off(cut.x0, cut.z0, cut.x1, cut.z1, i, j)
@@ -518,19 +495,37 @@ class Segmenter:
 
     def arc(self, i: int, j: int) -> tuple[Cut | None, float]:
         """The best arc through the grid points at samples i and j, and its measured deviation."""
-        chord = self._chord(i, j)
-        if chord is None:
+        a, b = self._vertex(i), self._vertex(j)
+        if a == b:
             return None, math.inf
         points = self.target.points[i : j + 1]
+        mid = ((a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0)
+        chord = (b[0] - a[0], b[1] - a[1])
+        half = math.sqrt(chord[0] * chord[0] + chord[1] * chord[1]) / 2.0
+        normal = (-chord[1] / (2.0 * half), chord[0] / (2.0 * half))
         start = self._centre_guess(points, i, j)
         if start is None:
             return None, math.inf
-        a, b, mid, normal, half = chord
         lam = (start[0] - mid[0]) * normal[0] + (start[1] - mid[1]) * normal[1]
         lam = self._refine(points, mid, normal, a, lam)
         if lam is None:
             return None, math.inf
-        cuts, rings = self._arc_cuts(chord, lam, points)
+        centre = (mid[0] + lam * normal[0], mid[1] + lam * normal[1])
+        radius = math.hypot(half, lam)
+        if radius > self.limits.max_arc_radius:
+            return None, math.inf
+        cw = self._direction(a, b, centre, points[len(points) // 2].tolist())
+        cuts, rings = [], []
+        radius_tolerance = self.limits.arc_radius_tolerance
+        for cand in self._rounded_centres(a, centre):
+            r0 = math.hypot(a[0] - cand[0], a[1] - cand[1])  # as Cut._spiral
+            r1 = math.hypot(b[0] - cand[0], b[1] - cand[1])
+            if abs(r1 - r0) > radius_tolerance:
+                continue
+            if abs(cand[0] - a[0]) < 1e-12 and abs(cand[1] - a[1]) < 1e-12:
+                continue
+            cuts.append(Cut(a[0], a[1], b[0], b[1], cand[0], cand[1], cw))
+            rings.append((r0, r1) if r0 <= r1 else (r1, r0))
         if not cuts:
             return None, math.inf
         ends = self._ends_off(a[0], a[1], b[0], b[1], i, j)  # as _measure
@@ -542,40 +537,6 @@ class Segmenter:
             if deviation < best_dev:
                 best, best_dev = cut, deviation
         return best, best_dev
-
-    def _chord(self, i: int, j: int) -> "Chord | None":
-        """The chord between the grid points at samples i and j (None when they are one point)."""
-        a, b = self._vertex(i), self._vertex(j)
-        if a == b:
-            return None
-        mid = ((a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0)
-        chord = (b[0] - a[0], b[1] - a[1])
-        half = math.sqrt(chord[0] * chord[0] + chord[1] * chord[1]) / 2.0
-        normal = (-chord[1] / (2.0 * half), chord[0] / (2.0 * half))
-        return Chord(a, b, mid, normal, half)
-
-    def _arc_cuts(self, chord: "Chord", lam: float, points: np.ndarray) -> tuple[list[Cut], list[tuple[float, float]]]:
-        """The arc cuts across ``chord`` whose centres round the one at ``lam`` along its normal,
-        as the control will run them, and the ring (least and largest radius) of each: none when
-        that centre lies beyond the largest radius, none that the radius check refuses."""
-        a, b, mid, normal, half = chord
-        centre = (mid[0] + lam * normal[0], mid[1] + lam * normal[1])
-        radius = math.hypot(half, lam)
-        cuts, rings = [], []
-        if radius > self.limits.max_arc_radius:
-            return cuts, rings
-        cw = self._direction(a, b, centre, points[len(points) // 2].tolist())
-        radius_tolerance = self.limits.arc_radius_tolerance
-        for cand in self._rounded_centres(a, centre):
-            r0 = math.hypot(a[0] - cand[0], a[1] - cand[1])  # as Cut._spiral
-            r1 = math.hypot(b[0] - cand[0], b[1] - cand[1])
-            if abs(r1 - r0) > radius_tolerance:
-                continue
-            if abs(cand[0] - a[0]) < 1e-12 and abs(cand[1] - a[1]) < 1e-12:
-                continue
-            cuts.append(Cut(a[0], a[1], b[0], b[1], cand[0], cand[1], cw))
-            rings.append((r0, r1) if r0 <= r1 else (r1, r0))
-        return cuts, rings
 
     def _radial_bounds(self, cuts: list[Cut], rings: list[tuple[float, float]], points: np.ndarray) -> list[float]:
         """For each arc cut, a lower bound of what :meth:`_measure` gives, without sampling it.
@@ -664,9 +625,10 @@ class Segmenter:
         max_arc_radius, at most 100 m, here), so the decimal it rounds to is that quotient, and
         parsing it gives the nearest float, which Python's true division of the two integers
         gives too: the same floats without formatting and parsing four strings per arc."""
-        _, decimals, unit = _grid_constants(self.grid)
+        step, decimals, unit = _grid_constants(self.grid)
         scale = 10**decimals
-        ix, kz = centre_steps(self.grid, a, centre)
+        ix = (centre[0] - a[0]) / unit / step
+        kz = (centre[1] - a[1]) / unit / step
         x_down, x_up = a[0] + math.floor(ix) / scale * unit, a[0] + math.ceil(ix) / scale * unit  # unit: Grid.offset_of
         z_down, z_up = a[1] + math.floor(kz) / scale * unit, a[1] + math.ceil(kz) / scale * unit
         return {(x_down, z_down), (x_down, z_up), (x_up, z_down), (x_up, z_up)}

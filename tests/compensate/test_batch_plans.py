@@ -1,4 +1,4 @@
-"""Single-arc plans of many targets at once: each one the segmenter's own plan, float for float,
+"""One-block plans of many targets at once: each one the segmenter's own plan, float for float,
 or none (the segmenter then plans the target alone); and a program compensated with them is
 byte for byte the program compensated without them."""
 
@@ -16,7 +16,7 @@ from postproc.api import Pipeline
 from postproc.compensate import planning
 from postproc.compensate.models import dumps
 from postproc.compensate.segmenter import Limits, Target, plan, sample_params
-from postproc.compensate.single_arcs import single_arcs
+from postproc.compensate.batch_plans import batch_plans
 from postproc.diagnostics import Reporter
 from postproc.geometry import Arc, Line
 from postproc.machine.profile import DEFAULT
@@ -65,28 +65,65 @@ def cam_targets(draw):
 
 def same_plan(found, expected) -> bool:
     """The same cuts (to the bit, signs of zero included) and the same measured deviation."""
-    return (expected.method == found.method == "arc" and repr(found.cuts) == repr(expected.cuts)
-            and found.deviation == expected.deviation and not found.widened)
+    return (expected.method == found.method and repr(found.cuts) == repr(expected.cuts)
+            and found.deviation == expected.deviation and not found.widened and len(found.cuts) == 1)
 
 
 def check(targets: list[Target], limits: list[Limits]) -> int:
-    """Each target's plan from the batch is the segmenter's, in AUTO and ARC mode; the count found."""
-    found = single_arcs(targets, limits)
-    for target, within, plan_found in zip(targets, limits, found):
+    """Each target's plan from the batch is the segmenter's in every mode it is found for (a
+    straight line's in every mode, an arc's in AUTO and ARC mode); the count found."""
+    found = batch_plans(targets, limits)
+    lines_only = batch_plans(targets, limits, arcs=False)
+    for target, within, plan_found, line_found in zip(targets, limits, found, lines_only):
         if plan_found is None:
             continue
-        for mode in ("auto", "arc"):
+        straight = type(target.nominal) is Line
+        assert (line_found is not None) == straight
+        for mode in ("auto", "arc", "line") if straight else ("auto", "arc"):
             assert same_plan(plan_found, plan(target, within, mode))
     return sum(plan_found is not None for plan_found in found)
 
 
+@st.composite
+def line_targets(draw):
+    """Lines as a CAM post writes them, moved as a model moves them: straight (a displacement
+    linear along the move, the common case) or bent by a wave."""
+    grid = draw(st.sampled_from(GRIDS))
+    x0, z0 = grid.snap(draw(st.floats(0.0, 150.0)), draw(st.floats(-300.0, 10.0)))
+    x1, z1 = grid.snap(x0 + draw(st.floats(-20.0, 20.0)), z0 + draw(st.sampled_from([0.0, draw(st.floats(-50.0, 50.0))])))
+    line = Line(x0, z0, x1, z1)
+    t = sample_params(line)
+    points = line.point_at(t)
+    d = points * np.array([draw(st.floats(-3e-4, 3e-4)), draw(st.floats(-3e-4, 3e-4))])
+    d += np.array([draw(st.floats(-0.015, 0.015)), draw(st.floats(-0.015, 0.015))])
+    d[:, 0] += draw(st.sampled_from([0.0, 0.0, draw(st.floats(0.0, 0.005))])) * np.sin(math.pi * t)
+    tolerance = draw(st.sampled_from([0.0005, 0.001, 0.002, 0.005, 0.00508]))
+    return Target(line, t, d), Limits(tolerance, grid)
+
+
 @settings(max_examples=150, deadline=None)
-@given(st.lists(cam_targets(), min_size=1, max_size=6))
+@given(st.lists(st.one_of(cam_targets(), line_targets()), min_size=1, max_size=8))
 def test_each_plan_found_together_is_the_segmenter_s_own_bit_for_bit(cases):
     check([target for target, _ in cases], [limits for _, limits in cases])
 
 
-def test_most_arcs_of_a_cam_program_are_planned_together_as_the_segmenter_plans_them():
+@settings(max_examples=300, deadline=None)
+@given(st.sampled_from(GRIDS), st.lists(st.tuples(st.floats(-2000.0, 2000.0), st.floats(-2000.0, 2000.0)), min_size=1,
+                                        max_size=20), st.integers(0, 3))
+def test_points_snapped_together_are_the_grid_s_snap_bit_for_bit(grid, points, halves):
+    """Halves included: a value whose scaled digits end in exactly one half (ties go to even)."""
+    step = grid.step * grid.unit
+    points = points + [((k + 0.5) * step / (2.0 if grid.diameter else 1.0), (k - 0.5) * step) for k in range(halves)]
+    x, z = np.array(points).T
+    line = Line(0.0, 0.0, 1.0, 1.0)
+    targets = [Target(line, np.array([0.0, 1.0]), np.array([[a, b], [a + 1.0, b + 1.0]]) - line.point_at(np.array([0.0, 1.0])))
+               for a, b in points]
+    for target, (a, b), found in zip(targets, points, batch_plans(targets, [Limits(1.0, grid)] * len(targets))):
+        if found is not None:
+            assert repr(found.cuts[0].start) == repr(grid.snap(a, b))
+
+
+def test_most_moves_of_a_cam_program_are_planned_together_as_the_segmenter_plans_them():
     """Not a test that passes by finding nothing: of arcs a CAM post writes, moved as a model of a
     machine moves them, most are planned together, and each plan is the segmenter's."""
     rng = np.random.default_rng(7)
@@ -98,21 +135,27 @@ def test_most_arcs_of_a_cam_program_are_planned_together_as_the_segmenter_plans_
                       math.radians(rng.uniform(10, 180)) * rng.choice([1, -1]), 0.0)
         targets.append(displaced(arc, tuple(rng.uniform(-2e-4, 2e-4, 2)), tuple(rng.uniform(-0.01, 0.01, 2)), 0.0, 1))
         limits.append(Limits(0.001, grid))
-    assert check(targets, limits) >= 200
+        line = Line(*arc.point_at(np.array([1.0]))[0], *grid.snap(rng.uniform(0, 80), rng.uniform(-150, 0)))
+        t = sample_params(line)
+        targets.append(Target(line, t, line.point_at(t) * 1e-4 + 0.005))
+        limits.append(Limits(0.001, grid))
+    assert check(targets, limits) >= 500
 
 
 def test_targets_planned_another_way_are_left_to_the_segmenter():
-    """A whole circle, a line, a target of two samples and an arc so flat a line may follow it."""
+    """A whole circle, a bent line, a target of two samples and an arc so flat a line may follow it."""
     grid = GRIDS[0]
     circle = Arc(0.0, 0.0, 10.0, 0.3, 2.0 * math.pi)
     flat = Arc(0.0, -1000.0, 1000.0, math.pi / 2, -0.0001)
     line = Line(10.0, 0.0, 12.0, -5.0)
     two = Arc(0.0, 0.0, 5.0, 0.0, 1.0)
     targets = [Target(segment, sample_params(segment), np.zeros((len(sample_params(segment)), 2)))
-               for segment in (circle, flat, line)]
+               for segment in (circle, flat)]
+    t = sample_params(line)
+    targets.append(Target(line, t, 0.01 * np.sin(math.pi * t)[:, None] * np.ones((1, 2))))
     targets.append(Target(two, np.array([0.0, 1.0]), np.zeros((2, 2))))
-    assert single_arcs(targets, [Limits(0.001, grid)] * len(targets)) == [None] * len(targets)
-    assert single_arcs([], []) == []
+    assert batch_plans(targets, [Limits(0.001, grid)] * len(targets)) == [None] * len(targets)
+    assert batch_plans([], []) == []
 
 
 FILLETS = """%
@@ -157,18 +200,22 @@ def model(tmp_path_factory):
     return str(path)
 
 
-@pytest.mark.parametrize("tolerance", [0.001, 0.002])
-def test_a_program_compensated_with_arcs_planned_together_is_the_same_byte_for_byte(model, monkeypatch, tolerance):
+@pytest.mark.parametrize("tolerance, mode", [(0.001, "auto"), (0.002, "auto"), (0.001, "line")])
+def test_a_program_compensated_with_moves_planned_together_is_the_same_byte_for_byte(model, monkeypatch, tolerance,
+                                                                                       mode):
     program = fillet_program(300)
-    together = []
+    together = {"arc": 0, "line": 0}
 
-    def counted(targets, limits):
-        found = single_arcs(targets, limits)
-        together.extend(plan_found for plan_found in found if plan_found is not None)
+    def counted(targets, limits, arcs=True):
+        found = batch_plans(targets, limits, arcs)
+        for plan_found in found:
+            if plan_found is not None:
+                together[plan_found.method] += 1
         return found
 
-    monkeypatch.setattr(planning, "single_arcs", counted)
-    text = Pipeline(model=model, tolerance=tolerance, reporter=Reporter()).compensate_text(program, "t.nc")
-    assert len(together) >= 300
+    monkeypatch.setattr(planning, "batch_plans", counted)
+    text = Pipeline(model=model, tolerance=tolerance, mode=mode, reporter=Reporter()).compensate_text(program, "t.nc")
+    assert together["line"] >= 600 and (together["arc"] >= 300 if mode == "auto" else together["arc"] == 0)
     monkeypatch.setattr(planning.Planning, "_presolve", lambda self, batch: None)
-    assert text == Pipeline(model=model, tolerance=tolerance, reporter=Reporter()).compensate_text(program, "t.nc")
+    assert text == Pipeline(model=model, tolerance=tolerance, mode=mode, reporter=Reporter()).compensate_text(program,
+                                                                                                             "t.nc")

@@ -1,11 +1,12 @@
-"""Single-arc plans of many targets at once: for each arc target, the plan :func:`.segmenter.plan`
-gives it when that plan is one arc, worked out for a whole batch of targets by arrays.
+"""One-block plans of many targets at once: for each target that :func:`.segmenter.plan` plans
+as one line or one arc, that plan, worked out for a whole batch of targets by arrays.
 
-A CAM program's arcs are each planned as one arc, and planning them one by one is dozens of
-numpy calls per arc on a few dozen samples: their overhead, not the arithmetic, is the time.
-Here every stage of :meth:`.segmenter.Segmenter.arc` runs once for all the targets: the targets
-across their frames, the ends on the grid, the chord, the centre's Gauss-Newton fit, the rounded
-centres and their radial bounds, and, in rounds, the candidates' paths across the frames.
+A CAM program's moves are each planned as one block, and planning them one at a time costs
+numpy calls on a few dozen samples per move: their overhead, not the arithmetic, is the time.
+Here a batch's straight lines (:func:`.segmenter._straight`) are snapped together, and every
+stage of :meth:`.segmenter.Segmenter.arc` runs once for all of its arcs: the targets across their
+frames, the ends on the grid, the chord, the centre's Gauss-Newton fit, the rounded centres and
+their radial bounds, and, in rounds, the candidates' paths across the frames.
 
 The plans are the segmenter's, float for float. Each array operation is the one the segmenter
 makes on the same operands (numpy's element-wise functions give an element the same value
@@ -19,9 +20,9 @@ by arrays, and neither decides a plan here:
   boundary, of a turning boundary or of the largest radius is left to the segmenter;
 - a value that rounds to a decimal within a hair of a half: snapped by :meth:`Grid.snap` itself.
 
-A target the segmenter would plan by another route (a full circle, an arc a line might follow,
-a target that turns back across its frame, one whose arc does not keep within the tolerance)
-gets ``None``, and is planned on its own.
+A target the segmenter would plan by another route (a bent line, a full circle, an arc a line
+might follow, a target that turns back across its frame, one whose block does not keep within
+the tolerance) gets ``None``, and is planned on its own.
 """
 
 from __future__ import annotations
@@ -30,8 +31,9 @@ import math
 
 import numpy as np
 
-from ..geometry import TAU, Arc
-from .segmenter import Cut, Limits, Plan, Target, _deviation, _grid_constants, arc_cut_spacing, chord_cannot_follow
+from ..geometry import TAU, Arc, Line
+from .segmenter import (Cut, Limits, Plan, Target, _deviation, _grid_constants, arc_cut_spacing, chord_cannot_follow,
+                        measure_bends)
 
 #: the Gauss-Newton fit's iterations and settling step, as :meth:`Segmenter._refine`'s
 _ITERATIONS = 12
@@ -43,16 +45,70 @@ _FIT_DOUBT = 1e-9
 _NEAR_HALF = 1e-6
 
 
-def single_arcs(targets: list[Target], limits: list[Limits]) -> list[Plan | None]:
-    """For each target (planned within the limits beside it), the one-arc plan that
-    :func:`.segmenter.plan` gives it in AUTO or ARC mode, or None where that plan is not one
-    arc or is not settled here (the caller then plans the target on its own)."""
+def batch_plans(targets: list[Target], limits: list[Limits], arcs: bool = True) -> list[Plan | None]:
+    """For each target (planned within the limits beside it), the plan :func:`.segmenter.plan`
+    gives it when that plan is one straight line (in every mode) or, with ``arcs`` (AUTO and ARC
+    mode), one arc; None where it is not, or is not settled here (the caller then plans the
+    target on its own)."""
     found: list[Plan | None] = [None] * len(targets)
-    chosen = [k for k, target in enumerate(targets) if _eligible(target)]
+    lines = [k for k, target in enumerate(targets) if type(target.nominal) is Line]
+    if lines:
+        for k, plan in zip(lines, _straight([targets[k] for k in lines], [limits[k] for k in lines])):
+            found[k] = plan
+    chosen = [k for k, target in enumerate(targets) if arcs and _eligible(target)]
     if chosen:
         for k, plan in zip(chosen, _Batch([targets[k] for k in chosen], [limits[k] for k in chosen]).plans()):
             found[k] = plan
     return found
+
+
+def _straight(targets: list[Target], limits: list[Limits]) -> list[Plan | None]:
+    """:func:`.segmenter._straight` of many line targets: a line moved by a displacement that
+    changes linearly along it is one block between its snapped ends."""
+    measure_bends(targets)
+    plans: list[Plan | None] = [None] * len(targets)
+    keep = [k for k, target in enumerate(targets) if target.bend <= 1e-12]  # NaN: left to the segmenter
+    if not keep:
+        return plans
+    ends = np.array([(*targets[k].points[0].tolist(), *targets[k].points[-1].tolist()) for k in keep])
+    grids = np.array([_grid_of(limits[k]) for k in keep])
+    decimals, diameter, unit = grids.T
+    (ax, az), (bx, bz) = (_snapped(ends[:, 0], ends[:, 1], decimals, diameter, unit),
+                          _snapped(ends[:, 2], ends[:, 3], decimals, diameter, unit))
+    dist = math.dist
+    for k, (sx, sz, ex, ez), a_x, a_z, b_x, b_z in zip(keep, ends.tolist(), ax.tolist(), az.tolist(), bx.tolist(),
+                                                         bz.tolist()):
+        if a_x == b_x and a_z == b_z:
+            continue
+        deviation = max(dist((a_x, a_z), (sx, sz)), dist((b_x, b_z), (ex, ez)))
+        if deviation <= limits[k].tolerance:
+            plans[k] = Plan([Cut(a_x, a_z, b_x, b_z)], deviation, "line")
+    return plans
+
+
+def _grid_of(limits: Limits) -> tuple[float, float, float]:
+    """The grid's decimals, X factor (2 when X is written as a diameter) and unit (mm)."""
+    _, decimals, unit = _grid_constants(limits.grid)
+    return decimals, 2.0 if limits.grid.diameter else 1.0, unit
+
+
+def _snapped(x: np.ndarray, z: np.ndarray, decimals: np.ndarray, diameter: np.ndarray, unit: np.ndarray):
+    """:meth:`Grid.snap` of many points: the word's digits by ``rint`` where the scaled value is
+    not within a hair of a half (else by the grid's correctly rounded format), and the word's
+    value as the quotient of its digits by the scale, as parsing the decimal gives."""
+    scale = 10.0**decimals
+    words = []
+    for value in (x * diameter / unit, z / unit):
+        scaled = value * scale
+        digits = np.rint(scaled)
+        near = np.abs(np.abs(scaled - np.floor(scaled)) - 0.5) < _NEAR_HALF
+        for k in np.flatnonzero(near).tolist():
+            places = int(decimals[k])
+            digits[k] = round(float("%.*f" % (places, value[k])) * 10**places)
+        word = digits / scale
+        word += 0.0
+        words.append(word)
+    return words[0] * unit / diameter, words[1] * unit
 
 
 def _eligible(target: Target) -> bool:
@@ -121,12 +177,12 @@ class _Batch:
 
     def _ends(self) -> None:
         """The target's ends on the grid (:meth:`Grid.snap`, the segmenter's vertices) and the
-        chord between them (:meth:`Segmenter._chord`)."""
+        chord between them (as :meth:`Segmenter.arc` works them out)."""
         last = self.starts + self.counts - 1
         first_x, first_z = self.points[self.starts].T
         last_x, last_z = self.points[last].T
-        ax, az = self._snapped(first_x, first_z)
-        bx, bz = self._snapped(last_x, last_z)
+        ax, az = _snapped(first_x, first_z, self.decimals, self.diameter, self.unit)
+        bx, bz = _snapped(last_x, last_z, self.decimals, self.diameter, self.unit)
         self.live &= (ax != bx) | (az != bz)
         self.a, self.b = (ax, az), (bx, bz)
         self.mid = ((ax + bx) / 2.0, (az + bz) / 2.0)
@@ -135,24 +191,6 @@ class _Batch:
             self.half = np.sqrt(chord_x * chord_x + chord_z * chord_z) / 2.0
             self.normal = (-chord_z / (2.0 * self.half), chord_x / (2.0 * self.half))
         self.ends_of = (first_x.tolist(), first_z.tolist(), last_x.tolist(), last_z.tolist())
-
-    def _snapped(self, x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`Grid.snap` of many points: the word's digits by ``rint`` where the scaled value
-        is not within a hair of a half (else by the grid's correctly rounded format), and the
-        word's value as the quotient of its digits by the scale, as parsing the decimal gives."""
-        scale = 10.0**self.decimals
-        words = []
-        for value in (x * self.diameter / self.unit, z / self.unit):
-            scaled = value * scale
-            digits = np.rint(scaled)
-            near = np.abs(np.abs(scaled - np.floor(scaled)) - 0.5) < _NEAR_HALF
-            for k in np.flatnonzero(near).tolist():
-                decimals = int(self.decimals[k])
-                digits[k] = round(float("%.*f" % (decimals, value[k])) * 10**decimals)
-            word = digits / scale
-            word += 0.0
-            words.append(word)
-        return words[0] * self.unit / self.diameter, words[1] * self.unit
 
     # ---------------------------------------------------------------- the centre
 
@@ -202,7 +240,8 @@ class _Batch:
 
     def _centres(self) -> None:
         """The fitted centre, the way the arc turns (:meth:`Segmenter._direction`) and the I and
-        K words in grid steps (:func:`centre_steps`), where the fit's doubt cannot change them."""
+        K words in grid steps (as :meth:`Segmenter._rounded_centres` counts them), where the fit's doubt
+        cannot change them."""
         lam, (mid_x, mid_z), (nx, nz) = self.lam, self.mid, self.normal
         doubt = _FIT_DOUBT * np.maximum(1.0, np.abs(lam))
         with np.errstate(all="ignore"):
@@ -220,7 +259,7 @@ class _Batch:
         self.cw = turns[1]
 
     def _candidates(self) -> None:
-        """:meth:`Segmenter._arc_cuts`: the rounded centres in the order the segmenter's set of
+        """The candidate cuts of :meth:`Segmenter.arc`: the rounded centres in the order the segmenter's set of
         them gives, less those the radius check refuses and one on the start point, with the
         ring of each; and how far the ends lie off the target (:meth:`Segmenter._ends_off`)."""
         live = np.flatnonzero(self.live)
@@ -375,4 +414,4 @@ def _arc_uv(rel_x: np.ndarray, rel_z: np.ndarray, mid, forward, half, r) -> tupl
     return along, across
 
 
-__all__ = ["single_arcs"]
+__all__ = ["batch_plans"]
