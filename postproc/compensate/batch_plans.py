@@ -20,9 +20,10 @@ by arrays, and neither decides a plan here:
   boundary, of a turning boundary or of the largest radius is left to the segmenter;
 - a value that rounds to a decimal within a hair of a half: snapped by :meth:`Grid.snap` itself.
 
-A target the segmenter would plan by another route (a bent line, a full circle, an arc a line
-might follow, a target that turns back across its frame, one whose block does not keep within
-the tolerance) gets ``None``, and is planned on its own.
+A target the segmenter would plan by another route (a bent line, a full circle, a target that
+turns back across its frame, one whose block does not keep within the tolerance) gets ``None``,
+and is planned on its own. An arc whose chord may follow it is measured as a line first, as
+the segmenter measures it.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ import numpy as np
 
 from ..geometry import TAU, Arc, Line
 from .segmenter import (Cut, Limits, Plan, Target, _deviation, _grid_constants, arc_cut_spacing, chord_cannot_follow,
-                        measure_bends)
+                        measure_bends, unit_steps)
 
 #: the Gauss-Newton fit's iterations and settling step, as :meth:`Segmenter._refine`'s
 _ITERATIONS = 12
@@ -146,16 +147,24 @@ class _Batch:
         table = np.array([values[id(within)] for within in limits])
         self.tol, self.decimals, self.diameter, self.unit, self.step, self.max_radius = table.T
         shift = np.maximum.reduceat(np.hypot(*np.concatenate([target.d for target in targets]).T), self.starts)
-        self.live = np.array([chord_cannot_follow(target.nominal, size, within.tolerance, within.grid)
-                              for target, size, within in zip(targets, shift.tolist(), limits)], dtype=bool)
+        #: the targets :meth:`Segmenter.single_line` measures a line for first (their chord may follow them)
+        self.line_first = ~np.array([chord_cannot_follow(target.nominal, size, within.tolerance, within.grid)
+                                     for target, size, within in zip(targets, shift.tolist(), limits)], dtype=bool)
+        self.live = np.ones(self.count, dtype=bool)
+        self.lines: list[Plan | None] = [None] * self.count
 
     def plans(self) -> list[Plan | None]:
-        stages = (self._frames, self._ends, self._fit, self._centres, self._candidates, self._bounds)
+        stages = (self._frames, self._ends, self._lines_first, self._fit, self._centres, self._candidates, self._bounds)
         for stage in stages:
             if not self.live.any():
-                return [None] * self.count
+                return self.lines
             stage()
-        return self._measure()
+        return [line or arc for line, arc in zip(self.lines, self._measure())]
+
+    def _spacing(self, k: int) -> float:
+        """:attr:`Segmenter.spacing` of target k: its frame's sampling of a planned path."""
+        tolerance = self.limits[k].tolerance
+        return min(self.limits[k].spacing, math.sqrt(8.0 * self.targets[k].nominal.r * tolerance * 0.01))
 
     # ---------------------------------------------------------------- the targets
 
@@ -191,6 +200,35 @@ class _Batch:
             self.half = np.sqrt(chord_x * chord_x + chord_z * chord_z) / 2.0
             self.normal = (-chord_z / (2.0 * self.half), chord_x / (2.0 * self.half))
         self.ends_of = (first_x.tolist(), first_z.tolist(), last_x.tolist(), last_z.tolist())
+
+    def _lines_first(self) -> None:
+        """:meth:`Segmenter.single_line` of the targets whose chord may follow them: the line
+        between the snapped ends, sampled as the segmenter samples it and measured across the
+        frame; one within the tolerance is the plan, the others go on to their arcs."""
+        which = np.flatnonzero(self.live & self.line_first).tolist()
+        if not which:
+            return
+        (ax, az), (bx, bz) = (self.a[0].tolist(), self.a[1].tolist()), (self.b[0].tolist(), self.b[1].tolist())
+        counts = np.array([max(2, math.ceil(math.hypot(bx[k] - ax[k], bz[k] - az[k]) / self._spacing(k)) + 1)
+                           for k in which])  # Cut.sample's
+        s = np.concatenate([unit_steps(n) for n in counts.tolist()])
+        rows = np.array(which)
+        x0, z0 = self.a[0][rows].repeat(counts), self.a[1][rows].repeat(counts)
+        x = x0 + s * (self.b[0][rows] - self.a[0][rows]).repeat(counts)
+        z = z0 + s * (self.b[1][rows] - self.a[1][rows]).repeat(counts)
+        cx, cz, mid, forward, half, r = (self.frame[rows, k].repeat(counts) for k in range(6))
+        u, v = _arc_uv(x - cx, z - cz, mid, forward > 0.0, half, r)
+        firsts_x, firsts_z, lasts_x, lasts_z = self.ends_of
+        ends = np.cumsum(counts).tolist()
+        for k, a, b in zip(which, [0] + ends[:-1], ends):
+            target_rows = slice(self.starts[k], self.starts[k] + self.counts[k])
+            off = max(math.dist((ax[k], az[k]), (firsts_x[k], firsts_z[k])),
+                      math.dist((bx[k], bz[k]), (lasts_x[k], lasts_z[k])))
+            deviation = max(_deviation(self.u[target_rows], self.v[target_rows], u[a:b], v[a:b], True, self.rising[k]),
+                            off)
+            if deviation <= self.tol[k]:
+                self.lines[k] = Plan([Cut(ax[k], az[k], bx[k], bz[k])], deviation, "line")
+                self.live[k] = False
 
     # ---------------------------------------------------------------- the centre
 
@@ -361,9 +399,8 @@ class _Batch:
         steps = []
         for k, _, cut in jobs:
             nominal = self.targets[k].nominal
-            tolerance = self.limits[k].tolerance
-            spacing = min(self.limits[k].spacing, math.sqrt(8.0 * nominal.r * tolerance * 0.01))
-            steps.append(cut._steps(arc_cut_spacing(cut, spacing, tolerance, 1.0 / nominal.r, nominal.xc, nominal.zc)))
+            steps.append(cut._steps(arc_cut_spacing(cut, self._spacing(k), self.limits[k].tolerance, 1.0 / nominal.r,
+                                                    nominal.xc, nominal.zc)))
         counts = np.array([len(s) for s, *_ in steps])
         s = np.concatenate([s for s, *_ in steps])
         per_cut = np.array([(a0, sweep, r1 - r0, r0, cut.xc, cut.zc) for (_, a0, sweep, r0, r1), (_, _, cut) in

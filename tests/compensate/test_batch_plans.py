@@ -143,19 +143,34 @@ def test_most_moves_of_a_cam_program_are_planned_together_as_the_segmenter_plans
 
 
 def test_targets_planned_another_way_are_left_to_the_segmenter():
-    """A whole circle, a bent line, a target of two samples and an arc so flat a line may follow it."""
+    """A whole circle, a bent line, a target of two samples and a target that turns back across
+    its frame."""
     grid = GRIDS[0]
     circle = Arc(0.0, 0.0, 10.0, 0.3, 2.0 * math.pi)
-    flat = Arc(0.0, -1000.0, 1000.0, math.pi / 2, -0.0001)
     line = Line(10.0, 0.0, 12.0, -5.0)
     two = Arc(0.0, 0.0, 5.0, 0.0, 1.0)
-    targets = [Target(segment, sample_params(segment), np.zeros((len(sample_params(segment)), 2)))
-               for segment in (circle, flat)]
-    t = sample_params(line)
-    targets.append(Target(line, t, 0.01 * np.sin(math.pi * t)[:, None] * np.ones((1, 2))))
-    targets.append(Target(two, np.array([0.0, 1.0]), np.zeros((2, 2))))
+    back = Arc(0.0, 0.0, 5.0, 0.0, 1.0)
+    t = sample_params(back)
+    along = 0.3 * np.sin(3.0 * math.pi * t)[:, None] * np.column_stack([-np.sin(t), np.cos(t)])
+    targets = [Target(circle, sample_params(circle), np.zeros((len(sample_params(circle)), 2))),
+               Target(line, sample_params(line), 0.01 * np.sin(math.pi * sample_params(line))[:, None] * np.ones((1, 2))),
+               Target(two, np.array([0.0, 1.0]), np.zeros((2, 2))), Target(back, t, along)]
     assert batch_plans(targets, [Limits(0.001, grid)] * len(targets)) == [None] * len(targets)
     assert batch_plans([], []) == []
+
+
+def test_an_arc_a_line_follows_is_the_segmenter_s_line():
+    """An arc so flat that its chord keeps within the tolerance: the segmenter measures a line
+    first and keeps it; one a little less flat is an arc."""
+    grid = GRIDS[0]
+    methods = []
+    for sweep in (-0.0001, -0.004):  # a sagitta of 0.01 um, and of 2 um: under the rounding budget, a line is tried
+        flat = Arc(0.0, -1000.0, 1000.0, math.pi / 2, sweep)
+        target = Target(flat, sample_params(flat), np.zeros((len(sample_params(flat)), 2)))
+        found = batch_plans([target], [Limits(0.001, grid)])[0]
+        assert same_plan(found, plan(target, Limits(0.001, grid)))
+        methods.append(found.method)
+    assert methods == ["line", "arc"]
 
 
 FILLETS = """%
