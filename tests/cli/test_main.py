@@ -253,10 +253,10 @@ print(json.dumps({"code": code, "modules": sorted(sys.modules)}))
 
 #: What a compensation with a saved model never needs: the fitting and plotting libraries, the
 #: grammar (the fast path reads ordinary blocks), the installed metadata's reader (this
-#: distribution's entry points are found without it), measurement reading, the ballbar fit and
-#: analysis (the model's parameters are checked by postproc.measure.parameters), the virtual
-#: lathe, the report.
-NOT_FOR_A_MODEL_RUN = ("scipy", "matplotlib", "lark", "threadpoolctl", "importlib.metadata", "email", "zipfile",
+#: distribution's entry points are found without it), the TOML reader (no profile file is given),
+#: measurement reading, the ballbar fit and analysis (the model's parameters are checked by
+#: postproc.measure.parameters), the virtual lathe, the report.
+NOT_FOR_A_MODEL_RUN = ("scipy", "matplotlib", "lark", "threadpoolctl", "importlib.metadata", "email", "zipfile", "tomllib",
                        "postproc.syntax.grammar", "postproc.measure.readers.registry", "postproc.measure.figures",
                        "postproc.measure.readers.ballbar", "postproc.measure.ballbar_fit",
                        "postproc.measure.ballbar_analysis", "postproc.simulator", "postproc.report")
