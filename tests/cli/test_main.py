@@ -255,21 +255,34 @@ print(json.dumps({"code": code, "modules": sorted(sys.modules)}))
 #: grammar (the fast path reads ordinary blocks), the installed metadata's reader (this
 #: distribution's entry points are found without it), the TOML reader (no profile file is given),
 #: measurement reading, the ballbar fit and analysis (the model's parameters are checked by
-#: postproc.measure.parameters), the virtual lathe, the report.
+#: postproc.measure.parameters), the virtual lathe, the report; and the standard library's path,
+#: URL and address modules (pathlib, urllib, ipaddress), which a compensation never needs.
 NOT_FOR_A_MODEL_RUN = ("scipy", "matplotlib", "lark", "threadpoolctl", "importlib.metadata", "email", "zipfile", "tomllib",
+                       "pathlib", "urllib", "ipaddress",
                        "postproc.syntax.grammar", "postproc.measure.readers.registry", "postproc.measure.figures",
                        "postproc.measure.readers.ballbar", "postproc.measure.ballbar_fit",
                        "postproc.measure.ballbar_analysis", "postproc.simulator", "postproc.report")
 
 
 def _started(*args: str):
+    """STARTED with postproc found as an installed copy finds it: without the site module, so
+    without the editable install's finder, which imports pathlib, urllib and ipaddress into every
+    start of this checkout (an installed postproc does not); the plugins package a link to
+    ``plugins/``, the installed libraries and this distribution's entry points where they are."""
     import json
     import subprocess
     import sys
+    import sysconfig
+    import tempfile
+    from pathlib import Path
 
     from support import REPO
 
-    done = subprocess.run([sys.executable, "-c", STARTED, *args], capture_output=True, text=True, cwd=REPO)
+    with tempfile.TemporaryDirectory() as installed:
+        (Path(installed) / "postproc_plugins").symlink_to(REPO / "plugins", target_is_directory=True)
+        path = [installed, str(REPO), sysconfig.get_paths()["purelib"]]
+        done = subprocess.run([sys.executable, "-S", "-c", f"import sys; sys.path[:0] = {path!r}\n{STARTED}", *args],
+                              capture_output=True, text=True, cwd=REPO)
     return json.loads(done.stdout), done.stderr
 
 
