@@ -316,23 +316,32 @@ def test_a_compensation_with_a_saved_model_imports_only_what_it_uses(run, tmp_pa
 
 #: A run as the console script starts it (``main()`` with no arguments reads ``sys.argv``), then
 #: whether the objects it built were frozen out of the garbage collector's reach, the collector's
-#: thresholds and the BLAS thread counts asked for.
+#: thresholds at the end and when numpy was imported, and the BLAS thread counts asked for.
 AS_A_PROCESS = """
 import gc, os, sys
+
+class Seen:
+    def find_spec(self, name, path=None, target=None):
+        if name == "numpy":
+            seen.append(gc.get_threshold())
+
+seen = []
+sys.meta_path.insert(0, Seen())
 from postproc.cli.main import main
 try:
     main()
 except SystemExit as stop:
-    print(stop.code, gc.get_freeze_count() > 0, gc.get_threshold(), os.environ.get("OPENBLAS_NUM_THREADS"),
+    print(stop.code, gc.get_freeze_count() > 0, gc.get_threshold(), seen[0], os.environ.get("OPENBLAS_NUM_THREADS"),
           os.environ.get("MKL_NUM_THREADS"))
 """
 
 
 def test_a_compensation_in_its_own_process_settles_its_collector_and_blas_and_a_callers_does_not(run, tmp_path):
-    """In the command line's own process the collector leaves the imports and the loaded model
-    alone and looks for cycles less often, and numpy's BLAS starts one thread (a small job's
-    start), unless the user set its variable; never in a caller's, whose objects must stay
-    collectable and whose collector and environment stay as it set them."""
+    """In the command line's own process the collector looks for cycles less often from the
+    compensation's start (numpy and the engine are imported so) and then leaves the imports and
+    the loaded model alone, and numpy's BLAS starts one thread (a small job's start), unless the
+    user set its variable; never in a caller's, whose objects must stay collectable and whose
+    collector and environment stay as it set them."""
     import gc
     import os
     import subprocess
@@ -351,7 +360,7 @@ def test_a_compensation_in_its_own_process_settles_its_collector_and_blas_and_a_
         out = tmp_path / f"own{threads[0]}.nc"
         done = subprocess.run([sys.executable, "-c", AS_A_PROCESS, "compensate", program, "--model", model,
                                "-o", str(out)], capture_output=True, text=True, env=env)
-        assert done.stdout == f"0 True {COLLECT_EVERY} {threads}\n", done.stderr
+        assert done.stdout == f"0 True {COLLECT_EVERY} {COLLECT_EVERY} {threads}\n", done.stderr
         assert out.read_bytes() == (tmp_path / "here.nc").read_bytes()
 
 
