@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from postproc.measure.ballbar_analysis import backlash_signs, jointly_centred, screen_spikes
 from postproc.compensator import Measurements
 from postproc.diagnostics import Location, MeasurementError
 from postproc.hookspecs import hookimpl
@@ -46,6 +45,8 @@ class BallbarInverse(TraceInversion):
     name = "ballbar-inverse"
 
     def fit(self, measurements: Measurements) -> None:
+        from postproc.measure.ballbar_analysis import jointly_centred, screen_spikes  # not for a saved model's run
+
         traces = measurements.ballbar
         if len(traces) > 2:
             raise MeasurementError(f"{self.name} takes one trace or a CCW and a CW trace; {len(traces)} given",
@@ -65,6 +66,8 @@ class BallbarInverse(TraceInversion):
 
     def _check_labels(self, result) -> None:
         """Swapped ccw/cw labels would put each trace on the other direction's arcs: refused unless forced."""
+        from postproc.measure.ballbar_analysis import backlash_signs  # not for a saved model's run
+
         if "backlash_x" not in result.names or "backlash_z" not in result.names:
             return
         problem, caution = backlash_signs(result.estimate("backlash_x"), result.estimate("backlash_z"))

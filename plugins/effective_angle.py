@@ -3,18 +3,18 @@
 from __future__ import annotations
 
 import math
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
-from postproc.measure import ballbar_fit
-from postproc.measure.ballbar_analysis import centred, paired, tests
 from postproc.compensator import Measurements, Piece
 from postproc.diagnostics import Location, MeasurementError, ModelError
 from postproc.corrections.error_functions import ErrorFunctions
 from postproc.geometry import Line
 from postproc.hookspecs import hookimpl
-from postproc.measure.readers.ballbar import BallbarTrace
+
+if TYPE_CHECKING:  # a saved model's run reads no trace
+    from postproc.measure.readers.ballbar import BallbarTrace
 
 TABLES = ("x+", "x-", "z+", "z-")  #: axis and direction of its travel
 OUTER = 0.1  #: share of a table's span at each end whose straight line extrapolates it
@@ -140,6 +140,9 @@ class EffectiveAngle(ErrorFunctions):
     name = "effective-angle"
 
     def fit(self, measurements: Measurements) -> None:
+        from postproc.measure import ballbar_fit  # the fitting: a saved model's run loads without it
+        from postproc.measure.ballbar_analysis import centred, paired, tests
+
         paired(list(measurements.ballbar), self.name)
         traces = self._traces(measurements)
         limit = self.settings["max-uncertainty"]

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from postproc.compensator import Measurements, Option
-from postproc.measure.ballbar_analysis import one_test, screen_spikes
 from postproc.hookspecs import hookimpl
 from postproc.measure.readers.ballbar import BallbarTrace
 from postproc.corrections.trace_inversion import Summed, TraceInversion
@@ -43,6 +42,8 @@ class Iterative(TraceInversion):
     )
 
     def fit(self, measurements: Measurements) -> None:
+        from postproc.measure.ballbar_analysis import one_test, screen_spikes  # not for a saved model's run
+
         by_direction: dict[str, list[BallbarTrace]] = {}
         for trace in measurements.ballbar:
             by_direction.setdefault(trace.direction, []).append(trace)

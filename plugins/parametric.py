@@ -6,16 +6,18 @@ the extrapolation rule, predicting the traces back) is :mod:`postproc.correction
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from postproc.measure import ballbar_fit
-from postproc.measure.ballbar_analysis import Estimate, check_saved
+from postproc.measure.parameters import Estimate, check_saved
 from postproc.compensator import Measurements
 from postproc.diagnostics import ModelError
 from postproc.corrections.error_functions import ErrorFunctions
 from postproc.hookspecs import hookimpl
+
+if TYPE_CHECKING:  # imported where traces are fitted: a saved model's run loads without the fit
+    from postproc.measure import ballbar_fit
 
 
 # the physical model: each parameter's (e_x, e_z) per unit value
@@ -45,6 +47,8 @@ def fit_sides(samples: ballbar_fit.Samples, u: np.ndarray, w: np.ndarray,
     """The joint fit with a scaling per side of the centre, except on an axis where a side is not
     seen or too little of it to fit on its own (3-sigma effect over ``limit``): that axis gets one
     scaling for both sides. Returns the fit and why each such axis was joined."""
+    from postproc.measure import ballbar_fit  # the fitting: a saved model's run loads without it
+
     joined: dict[str, str] = {}
     others = ballbar_fit.machine_errors(samples, ("backlash_x", "backlash_z", "squareness", "servo_mismatch"))
     while True:
@@ -121,6 +125,8 @@ class Parametric(ErrorFunctions):
     name = "parametric"
 
     def fit(self, measurements: Measurements) -> None:
+        from postproc.measure import ballbar_fit  # the fitting: a saved model's run loads without it
+
         traces = self._traces(measurements)
         samples = ballbar_fit.Samples.of(traces)
         limit = self.settings["max-uncertainty"]

@@ -375,6 +375,7 @@ def compensate(inputs, output, out_dir, plugins, ballbar, probe, calibration, mo
                options, regions, max_correction, force, keep_unplannable, macro_values, diff, check_only, jobs,
                report_file):
     """Compensate part programs; with no compensator, write the input back byte for byte."""
+    _settling()
     from ..api import Pipeline
 
     plugins, model, options = _compensation(plugins, model, options)
@@ -464,19 +465,28 @@ def _one_blas_thread() -> None:
 COLLECT_EVERY = (10_000, 50, 100)
 
 
+def _settling() -> None:
+    """A compensation's start, before it imports numpy and the engine and builds its compensators:
+    from here on the cyclic garbage collector looks for cycles a tenth as often
+    (:data:`COLLECT_EVERY`). What is imported and built now lives until the process ends
+    (:func:`_settled`): at Python's default thresholds a small job collected some 30 times over
+    it (about 1.5 ms). The run's own objects (blocks, moves, arrays, cuts) are acyclic and freed
+    by reference counting as the program streams: looking for cycles among them a tenth as often
+    saves about 4 % of a large compensation's CPU, peak memory unchanged. Only in the command
+    line's own process: a caller's (a test, a script that calls :func:`main` with arguments)
+    keeps its collector as it set it."""
+    if _Commands.own_process:
+        gc.set_threshold(*COLLECT_EVERY)
+
+
 def _settled() -> None:
     """Everything imported and built so far (numpy, the package's modules, the fitted or loaded
     compensators) lives until the process ends: the cyclic garbage collector is told to leave it
     out of every later collection, and out of the last one at exit (``gc.freeze``): some 20 ms of
-    a small job, a tenth of its time, none of it for anything collectable. The run's own objects
-    (blocks, moves, arrays, cuts) are acyclic and freed by reference counting as the program
-    streams: the collector looks for cycles among them a tenth as often (:data:`COLLECT_EVERY`;
-    about 4 % of a large compensation's CPU, peak memory unchanged). Only in the command line's
-    own process: a caller's (a test, a script that calls :func:`main` with arguments) keeps its
-    objects collectable and its collector as it set it."""
+    a small job, a tenth of its time, none of it for anything collectable. Only in the command
+    line's own process: a caller's keeps its objects collectable."""
     if _Commands.own_process:
         gc.freeze()
-        gc.set_threshold(*COLLECT_EVERY)
 
 
 def _nothing_applied(pipeline, reporter: Reporter, written: bool = True) -> None:

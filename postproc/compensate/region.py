@@ -15,19 +15,23 @@ stay as they are: the region's first and last blocks meet them (the rewriter ask
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from ..diagnostics import OptionError
 from ..interpret.motion import Move, Step
 
-_LABELS = re.compile(r"^[Nn](\d+)(?:-[Nn](\d+))?$")
-_LINES = re.compile(r"^[Ll]?(\d+)(?:-[Ll]?(\d+))?$")
-_TOOL = re.compile(r"^[Tt](\d{1,4})$")
+# The forms of a value, compiled when a value is parsed (re keeps them): every compensation
+# imports this module, few give --region.
+_LABELS = r"^[Nn](\d+)(?:-[Nn](\d+))?$"
+_LINES = r"^[Ll]?(\d+)(?:-[Ll]?(\d+))?$"
+_TOOL = r"^[Tt](\d{1,4})$"
 FORMS = "N100-N200 or N100 (sequence numbers), L10-L50, L10, 10-50 or 10 (source lines), or a tool like T01"
 
 
-@dataclass(frozen=True)
-class Range:
+class Range(NamedTuple):
+    """One ``--region`` value. A named tuple rather than a frozen dataclass: every compensation
+    defines the class, few make one, and a named tuple's class is made several times faster."""
+
     kind: str  #: "labels", "lines" or "tool"
     first: int
     last: int
@@ -36,10 +40,10 @@ class Range:
 def parse(text: str) -> Range:
     """One ``--region`` value; a malformed one, or one that can select nothing, is an OptionError."""
     spec = text.strip()
-    if match := _LABELS.match(spec):
+    if match := re.match(_LABELS, spec):
         first = int(match.group(1))
         return Range("labels", first, int(match.group(2) or first))
-    if match := _LINES.match(spec):
+    if match := re.match(_LINES, spec):
         first = int(match.group(1))
         last = int(match.group(2) or first)
         if first == 0:
@@ -47,7 +51,7 @@ def parse(text: str) -> Range:
         if first > last:
             raise OptionError(f"--region {text}: the first line comes after the last (L{last}-L{first}?)")
         return Range("lines", first, last)
-    if match := _TOOL.match(spec):
+    if match := re.match(_TOOL, spec):
         digits = match.group(1)
         tool = int(digits[:-2]) if len(digits) > 2 else int(digits)  # T0101: tool 1, offset 01
         if tool == 0:

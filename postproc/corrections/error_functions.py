@@ -6,7 +6,8 @@ to its subclass, ``errors(u, w, x_direction, z_direction)``, and does the rest: 
 (any number, whole circles or partial arcs), screens the traces, keeps the box the arcs span
 and the extrapolation rule, corrects every piece's points in one array pass, predicts the
 traces back from the model and scores the fit. It imports the contract and the ballbar
-analysis only, never the engine, so a shop's plugin may subclass it.
+analysis only, never the engine, so a shop's plugin may subclass it; the analysis and the fit
+only where traces are read, so that a run applying a saved model does not import them.
 """
 
 from __future__ import annotations
@@ -15,10 +16,9 @@ from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
-from ..measure import ballbar_fit
-from ..measure.ballbar_analysis import screen, tests
 from ..compensate.compensator import Compensator, Measurements, Option, Piece
 from ..diagnostics import Location, MeasurementError
+from ..measure.parameters import EFFECT_LIMIT_MM
 
 if TYPE_CHECKING:  # a saved model's run reads no trace
     from ..measure.readers.ballbar import BallbarTrace
@@ -47,7 +47,7 @@ class ErrorFunctions(Compensator):
     needs = ("ballbar",)
     options = (
         Option("extrapolate", bool, False, "use the error functions beyond the box the test arcs span"),
-        Option("max-uncertainty", float, ballbar_fit.EFFECT_LIMIT_MM,
+        Option("max-uncertainty", float, EFFECT_LIMIT_MM,
                "largest 3-sigma effect (mm) of a fitted parameter the arcs must reach", positive=True),
     )
 
@@ -61,6 +61,9 @@ class ErrorFunctions(Compensator):
 
     def _traces(self, measurements: Measurements) -> list[BallbarTrace]:
         """The traces, screened; sets the reference centre, radius and box."""
+        from ..measure import ballbar_fit  # the fitting: a saved model's run loads without it
+        from ..measure.ballbar_analysis import screen, tests
+
         traces = list(measurements.ballbar)
         if len(traces) < 2:
             raise MeasurementError(f"a CCW and a CW trace of one test are needed, {len(traces)} given",
@@ -115,6 +118,8 @@ class ErrorFunctions(Compensator):
 
     def predicted(self, trace: BallbarTrace) -> np.ndarray:
         """The trace the model predicts on the commanded test, without a set-up centre."""
+        from ..measure import ballbar_fit  # the fitting: a saved model's run loads without it
+
         samples = ballbar_fit.Samples.of([trace])
         e_x, e_z = self.errors(samples.x - self.centre[0], samples.z - self.centre[1], samples.dx, samples.dz)
         return e_x * samples.cos + e_z * samples.sin
@@ -122,7 +127,8 @@ class ErrorFunctions(Compensator):
     def _score(self, traces: Sequence[BallbarTrace]) -> None:
         """Figures of the traces as measured minus the model's prediction, each test about its own
         least-squares centre (the set-up, which the model leaves out)."""
-        from ..measure.figures import figures  # only where traces are fitted, not for a saved model
+        from ..measure import ballbar_fit  # only where traces are fitted, not for a saved model
+        from ..measure.figures import figures
 
         samples = ballbar_fit.Samples.of(list(traces))
         residual = np.concatenate([ballbar_fit.as_measured(t) - self.predicted(t) for t in traces])

@@ -64,24 +64,20 @@ import numpy as np
 
 from . import ballbar_fit
 from .ballbar_fit import MAX_GAP_DEG, Estimate, arcs_text
-from ..diagnostics import Location, MeasurementError, ModelError
+from .parameters import BOUNDS, MAX_BACKLASH, MAX_NEGATIVE_BACKLASH, MAX_SCALING, beyond_bounds, check_saved
+from ..diagnostics import Location, MeasurementError
 
 if TYPE_CHECKING:  # imported where used: a saved model's check (check_saved) needs neither
     from .figures import Figures
     from .readers.ballbar import BallbarTrace
 
-__all__ = ["MAX_GAP_DEG", "Estimate", "CircularTest", "Diagnosis", "DirectionFigures", "circular_deviation",
-           "circular_test", "diagnose", "jointly_centred", "one_test", "paired", "plausibility", "predict", "screen",
-           "tests"]
+__all__ = ["MAX_GAP_DEG", "BOUNDS", "Estimate", "CircularTest", "Diagnosis", "DirectionFigures", "beyond_bounds",
+           "check_saved", "circular_deviation", "circular_test", "diagnose", "jointly_centred", "one_test", "paired",
+           "plausibility", "predict", "screen", "tests"]
 
 SCALING_BACKLASH = ("scaling_x", "scaling_z", "backlash_x", "backlash_z")  #: fitted from any trace
 CENTRE = ("centre_x", "centre_z")  #: the set-up centre
-MAX_SCALING = 500e-6  #: beyond this no machine scales: a wrong radius or unit
-MAX_BACKLASH = 0.050  #: mm; beyond this, a unit (or a machine to repair before compensating)
 NEGATIVE_FLOOR = 0.0005  #: mm; a backlash more negative than this (and than 3 sigma) is not noise
-MAX_NEGATIVE_BACKLASH = 0.010  #: mm; a control over-compensating its backlash by more is set wrong, or a unit
-MAX_SQUARENESS = 500e-6  #: rad; as MAX_SCALING: 50 um over 100 mm of Z, an axis to realign, or a unit
-MAX_SERVO_MISMATCH = 0.100  #: mm; 6 ms of lag between the axes at 1000 mm/min, a control to tune, or a unit
 
 
 @dataclass(frozen=True, slots=True)
@@ -311,43 +307,6 @@ def screen_spikes(traces: Sequence[BallbarTrace], reporter, force: bool, who: st
     if not force:
         raise MeasurementError(f"{who}: {text}; --force uses the traces as they are", where)
     reporter.warn(f"{who}: {text} (--force: used as they are)", where)
-
-
-#: name prefix -> (low, high, unit, scale to the unit, what a value beyond says): the bounds a fit
-#: holds its traces to (:func:`plausibility`), which a saved model is held to again (:func:`check_saved`)
-BOUNDS = {
-    "scaling": (-MAX_SCALING, MAX_SCALING, "ppm", 1e6, "no machine scales that much: a wrong radius or unit"),
-    "backlash": (-MAX_NEGATIVE_BACKLASH, MAX_BACKLASH, "um", 1e3,
-                 "a unit, a machine to repair, or a control whose backlash compensation is set far too high"),
-    "squareness": (-MAX_SQUARENESS, MAX_SQUARENESS, "urad", 1e6, "an axis to realign, or a unit"),
-    "servo_mismatch": (-MAX_SERVO_MISMATCH, MAX_SERVO_MISMATCH, "um", 1e3, "a control to tune, or a unit"),
-}
-
-
-def beyond_bounds(name: str, value: float) -> str | None:
-    """Why a fitted parameter's value is beyond its :data:`BOUNDS`, or None (within, or unbounded)."""
-    bound = next((b for prefix, b in BOUNDS.items() if name.startswith(prefix)), None)
-    if bound is None or bound[0] <= value <= bound[1]:
-        return None
-    low, high, unit, scale, meaning = bound
-    return (f"{name} {value * scale:+.1f} {unit} is beyond {low * scale:+.0f} .. {high * scale:+.0f} {unit}: "
-            f"{meaning}")
-
-
-def check_saved(compensator: str, parameters: dict[str, Estimate]) -> None:
-    """Hold a saved model's parameters (``scaling_*``, ``backlash_*``, ``squareness``,
-    ``servo_mismatch``: value and 1-sigma, mm and mm/mm) to what its traces were held to:
-    finite, a 1-sigma not negative, each value within its :data:`BOUNDS`. A model edited by hand
-    (its SHA-256 made again) or fitted from traces in another unit is refused (ModelError)
-    naming the parameter and the bound."""
-    for name, e in parameters.items():
-        if not (math.isfinite(e.value) and math.isfinite(e.sigma) and e.sigma >= 0.0):
-            raise ModelError(f"{compensator}: the saved model's {name} is {e.value:g} +- {e.sigma:g}: a value and a "
-                             "1-sigma must be finite, the 1-sigma not negative; fit the model again from the traces")
-        beyond = beyond_bounds(name, e.value)
-        if beyond is not None:
-            raise ModelError(f"{compensator}: the saved model's {beyond}; traces are refused beyond it, so the model "
-                             "was edited, or made from traces in another unit: fit it again from the traces")
 
 
 def plausibility(diagnosis: Diagnosis) -> tuple[list[str], list[str]]:

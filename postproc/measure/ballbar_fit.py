@@ -46,12 +46,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..diagnostics import Inseparable, Location, MeasurementError, Undetermined
+from .parameters import EFFECT_LIMIT_MM, Estimate
 
 if TYPE_CHECKING:
     from .readers.ballbar import BallbarTrace
 
 MAX_GAP_DEG = 10.0  #: a trace with no gap wider than this goes round the whole circle
-EFFECT_LIMIT_MM = 0.005  #: largest 3-sigma effect of a parameter that is reported or applied
 SEPARABLE = 1e-9  #: smallest singular value, relative to the largest, of a separable design
 
 #: name -> (what people call it, factor from the parameter's unit, unit shown)
@@ -70,14 +70,6 @@ LABELS = {
     "centre_x": ("set-up centre x", 1e3, "um"),
     "centre_z": ("set-up centre z", 1e3, "um"),
 }
-
-
-@dataclass(frozen=True, slots=True)
-class Estimate:
-    """A fitted parameter and its 1-sigma uncertainty."""
-
-    value: float
-    sigma: float
 
 
 def label(name: str) -> str:
