@@ -122,7 +122,7 @@ class WordConversion:
                     )
                 one_shot = (key, meaning)
             elif kind == G.MODAL:
-                modal = self._modal_setting(modal, meaning, key)
+                modal = self._modal_setting(modal, meaning, key, words)
             elif kind == G.CANCEL and one_shot is None:
                 one_shot = (key, G.DATA)  # "G50.1 X0.": the words name the mode's axes, they are no move
             elif kind == G.UNMODELLED and not (meaning == G.CYLINDRICAL and self._cancels_cylindrical(words)):
@@ -158,7 +158,7 @@ class WordConversion:
                 return self._motion(block, words)  # an arc in another plane moves X or Z on its way: say so
         return Step(block, (), self.modal)
 
-    def _modal_setting(self, modal: Modal, meaning, key: int) -> Modal:
+    def _modal_setting(self, modal: Modal, meaning, key: int, words: _Words) -> Modal:
         if meaning == G.INCH:
             return replace(modal, inch=True)
         if meaning == G.METRIC:
@@ -176,10 +176,11 @@ class WordConversion:
         if meaning in (G.PLANE_XY, G.PLANE_ZX, G.PLANE_YZ):
             return replace(modal, plane=key // 10)
         if meaning == G.WORK:
-            if self._work != key:
+            system = (key, words.values.get("P")) if key == 541 else key  # G54.1 P1..P300: P names the system
+            if self._work != system:
                 if self._work is not None:
                     self.x = self.z = None  # another work coordinate system: where are we in it?
-                self._work = key
+                self._work = system
             return modal
         if meaning == G.DRILL:
             self._drilling = True
@@ -241,6 +242,8 @@ class WordConversion:
     def _one_shot(self, block: Block, words: _Words, meaning: str) -> Step:
         values = words.values
         if meaning in (G.DWELL, G.DATA, G.CORNER_ARC):  # G39's I and K give a direction, not a position
+            if meaning == G.DATA and 100 in words.g and self._shifts_work_coordinates(words):
+                self._forget_shifted_axes(words)
             return Step(block, (), self.modal)
         if meaning == G.COORDINATE:
             if "S" in values:
@@ -300,6 +303,23 @@ class WordConversion:
             move = self._move(kind, block, self.x, self.z, exact=None not in (self.x, self.z))
             return Step(block, (move,), self.modal)
         raise AssertionError(meaning)
+
+    @staticmethod
+    def _shifts_work_coordinates(words: _Words) -> bool:
+        """G10 L2 (G54-G59, P0 the external offset), G10 L20 (G54.1 Pn) and G10 P0 without L (the
+        lathe's workpiece shift) move a work coordinate system, perhaps the one in force: the tool
+        stays where it is, and its coordinates change by the old offset, which only the control knows."""
+        if "L" in words.unknown:
+            return True
+        level = words.values.get("L")
+        return level in (2, 20) or (level is None and words.values.get("P") == 0)
+
+    def _forget_shifted_axes(self, words: _Words) -> None:
+        named = words.values.keys() | words.unknown.keys()
+        if named & {"X", "U"}:
+            self.x = None
+        if named & {"Z", "W"}:
+            self.z = None
 
     def _reference_return(self, block: Block, words: _Words) -> Step:
         values = words.values

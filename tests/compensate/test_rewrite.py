@@ -474,3 +474,20 @@ def test_a_correction_that_jumps_inside_a_block_under_g42_is_refused_at_the_bloc
     assert info.value.location.line == 4 and "join of" in info.value.message
     out, _ = rewrite(text, jump, _nose(0.0), tolerance=0.001)  # a control that does not offset: the join is written
     assert len(arcs_and_lines(out)) >= 3
+
+
+@pytest.mark.parametrize("change", ["G55", "G54.1 P2", "G10 L2 P1 Z-300.", "G10 L20 P1 X2.", "G10 P0 W-50.",
+                                    "G52 Z5.", "G50.3 P0"])
+def test_no_move_joins_the_end_in_one_work_frame_to_a_block_in_another(change):
+    """A corrected block ends off its nominal end; the next block starts from that end, and a
+    join brings it back. After a change of the work coordinates (another system, an offset
+    rewritten by G10, a local shift) the old end lies elsewhere in the new frame: a join written
+    there would cut through the part. The block after the change comes back as written."""
+    text = (f"G18 G21 G99 F0.1\nG54.1 P1\nG00 X20. Z5.\nG01 Z0.\nX40. Z-10.\n{change}\nG01 X60. Z-30.\n"
+            "X70.\nG00 X100.\n")
+    shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
+    out, _ = rewrite(text, shift, tolerance=0.001)
+    lines = out.splitlines()
+    after = lines.index(change)
+    assert lines[after + 1] == "G01 X60. Z-30."
+    assert "X40. Z-10." not in lines  # the block before the change was corrected

@@ -124,6 +124,28 @@ def test_work_offset_change_loses_the_position():
     assert result[-1].x0 is None
 
 
+@pytest.mark.parametrize("change, lost", [
+    ("G54.1 P2", "xz"),  # another additional system: P names it, the code alone does not
+    ("G10 L2 P1 Z-300.", "z"),  # the offset of G54 rewritten: the tool stays, its coordinates change
+    ("G10 L2 P0 U0.5", "x"),  # the external offset shifts every system; U adds to it
+    ("G10 L20 P1 X1. Z5.", "xz"),  # G54.1 P1's offset
+    ("G10 P0 W-50.", "z"),  # the lathe's workpiece coordinate shift (no L)
+    ("G10 L#1 P1 Z0.", "z"),  # which data a computed L sets is known only when the program runs
+])
+def test_a_change_of_work_coordinates_loses_the_positions_it_moves(change, lost):
+    """Whatever moves the frame the tool's coordinates are counted in, the position on that axis
+    is unknown until an absolute move: a move after it is never joined to the old frame's end."""
+    result = moves("G54.1 P1\n" + START + f"{change}\nG01 U-2. W-1.\n")
+    last = result[-1]
+    assert (last.x0 is None, last.z0 is None) == ("x" in lost, "z" in lost)
+
+
+@pytest.mark.parametrize("data", ["G54.1 P1", "G10 P1 Z0.5", "G10 P10001 X0.1", "G10 L50", "G10 L3 P1"])
+def test_the_same_work_coordinates_or_other_data_keep_the_position(data):
+    result = moves("G54.1 P1\n" + START + f"{data}\nG01 U-2. W-1.\n")
+    assert result[-1].known
+
+
 def test_modal_states_follow_the_blocks():
     result = steps(START + "G98 G96 S200 G42\nG01 Z0. F100.\nG40 G00 X120.\nT0303\n")
     modal = result[-1].modal
