@@ -154,6 +154,26 @@ def test_modal_states_follow_the_blocks():
     assert (feed.comp, feed.feed, feed.per_rev) == (42, 100.0, False)
 
 
+@pytest.mark.parametrize("motion", ["G00 X50. Z-10.", "G01 X50. Z-10.", "G01 X50.", "G02 X40. Z-10. R10.",
+                                    "G03 U20. W-10. I0. K-10.", "G90 X50. Z-10."])
+@pytest.mark.parametrize("word, axis", [("A150.", "A"), ("C1.", "C"), ("H30.", "C")])
+def test_a_word_that_changes_the_path_on_a_lathe_without_its_axis_is_not_read_as_nothing(motion, word, axis):
+    """A (direct drawing's angle), C (a chamfer) and H (incremental C) mean something to the
+    control even where the profile has no such axis: parameter 3405 bit 4 reads them as the
+    angle, chamfer and corner of the drawing. Read as nothing, ``G01 X50. A150.`` would be a
+    move along X alone. The block passes through uninterpreted, with a warning at the word, and
+    the position after it is unknown; on a lathe with the axis it is a move like any other."""
+    program = START + "G01 X30. Z0.\n" + f"{motion} {word}\nG01 W-5.\n"
+    reporter = Reporter()
+    result = moves(program, reporter)
+    assert not result[-2].known and result[-1].x0 is None
+    (warning,) = reporter.warnings
+    assert f"{word[0]} in a motion block" in warning.message
+    assert warning.location.col == len(motion) + 2
+    result = moves(program, axes="XZ" + axis)
+    assert result[-2].known and result[-1].known
+
+
 def test_chamfer_and_corner_radius_are_rows_of_their_own():
     result = moves(START + "G01 X40. Z0.\nZ-20. ,C2.\nX80. ,R5.\nZ-40.\n")
     rows = [geometry(m) for m in result[2:]]
