@@ -158,12 +158,31 @@ def from_mapping(data: dict[str, Any], origin: str = "<profile>", text: str | No
         bounds.tolerance(profile.tolerance, profile.max_correction, "tolerance =", at("tolerance"))
     if profile.gcode_system not in ("A", "B", "C"):
         raise OptionError("gcode_system must be A, B or C", at("gcode_system"))
+    _known_axes(profile.axes, at("axes"))
     if profile.input_increment not in INCREMENTS:
         raise OptionError(f"input_increment must be one of {', '.join(INCREMENTS)}", at("input_increment"))
     for unit, inch in (("mm", False), ("inch", True)):
         _readable_decimals(profile, unit, inch, at(f"output_decimals_{unit}" if f"output_decimals_{unit}" in values
                                                    else "input_increment"))
     return profile
+
+
+#: The axis addresses of a FANUC lathe (system A): X and Z, a C axis (spindle positioning or Cs
+#: contouring), Y on a mill-turn, B for a second spindle or a tailstock, A for a tilting head.
+#: U, W, H and V are the incremental addresses of X, Z, C and Y, not axes.
+_AXIS_LETTERS = "XZCYBA"
+
+
+def _known_axes(axes: str, where: Location) -> None:
+    """Refuse an ``axes`` the lathe cannot have: a letter that is no axis address (``XZU``: U
+    is X written incrementally, and every U word would be read as another axis's move), a
+    lowercase one (``xzc`` would leave the C words read as chamfers), a letter twice, or no
+    X or Z."""
+    wrong = [letter for letter in axes if letter not in _AXIS_LETTERS]
+    if wrong or len(set(axes)) != len(axes) or "X" not in axes or "Z" not in axes:
+        raise OptionError(f"axes = {axes!r}: the lathe's axis letters, each once, X and Z among them, from "
+                          f"{', '.join(_AXIS_LETTERS)} in capitals (U, W, H and V are the incremental addresses of X, "
+                          "Z, C and Y, not axes): for example \"XZ\" or \"XZC\"", where)
 
 
 def _readable_decimals(profile: MachineProfile, unit: str, inch: bool, where: Location) -> None:
@@ -300,7 +319,7 @@ MEANINGS = {
     "calculator_input": "true: a length without a decimal point is in mm or inches (parameter 3401 DPI); false: in "
                         "increments. Unset: compensate refuses a program that mixes both spellings.",
     "label_skip": "The control skips from the opening % to the first end of block.",
-    "axes": "The axes the lathe has; any other axis address is refused.",
+    "axes": "The axes the lathe has (X Z C Y B A, X and Z among them); any other axis address is refused.",
     "arc_radius_tolerance": "The control's arc check: start and end radius may differ by this (mm).",
     "max_arc_radius": "An arc above this radius is written as lines (mm).",
     "min_block_time_s": "No block shorter than the feed covers in this time (s).",

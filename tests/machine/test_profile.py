@@ -115,3 +115,19 @@ def test_finer_output_names_the_decimals_that_bring_the_default_tolerance_below_
         assert f": set {key} = {finest}, the finest the control's least input increment ({system}" in remedy
     else:
         assert remedy.endswith("allows: give a finer --tolerance, or leave the program uncompensated")
+
+
+@given(st.text(alphabet="XZCYBAUWHVQxzc ", max_size=6))
+def test_axes_are_the_lathes_axis_letters_each_once_with_x_and_z(axes):
+    """Only capitals a FANUC lathe has as axes, each once, X and Z among them: ``XZU`` (U is X
+    written incrementally) would read every U word as another axis's move, ``xzc`` would leave
+    the C words read as chamfers; such a profile is refused, naming the key."""
+    from postproc.diagnostics import OptionError
+
+    valid = set(axes) <= set("XZCYBA") and len(set(axes)) == len(axes) and {"X", "Z"} <= set(axes)
+    if valid:
+        assert from_mapping({"axes": axes}, "p.toml").axes == axes
+        return
+    with pytest.raises(OptionError) as refused:
+        from_mapping({"axes": axes}, "p.toml", f"axes = {axes!r}\n")
+    assert refused.value.message.startswith(f"axes = {axes!r}: ") and refused.value.location.line == 1
