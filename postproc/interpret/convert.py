@@ -248,18 +248,9 @@ class WordConversion:
         if meaning == G.COORDINATE:
             if "S" in values:
                 self.modal = replace(self.modal, clamp=values["S"])
-            if any(letter in values for letter in "XZ") or any(letter in words.unknown for letter in "XZ"):
-                x, z = self.x, self.z
-                diameter = 0.5 if self.profile.diameter_x else 1.0
-                if "X" in values:
-                    x = values["X"] * diameter
-                if "Z" in values:
-                    z = values["Z"]
-                if "X" in words.unknown:
-                    x = None
-                if "Z" in words.unknown:
-                    z = None
-                self.x, self.z = x, z
+            # The tool stays; its coordinates become those a move with these words would end at:
+            # X and Z as the distance mode reads them, U and W added to the old ones (G50 W-5.).
+            self.x, self.z = self._target(words, block)
             return Step(block, (), self.modal)
         if meaning in (G.HOME, G.HOME2):
             return self._reference_return(block, words)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from support.interpret import geometry, moves, steps
 from postproc.diagnostics import InterpretationError, Reporter, format_message
@@ -117,6 +118,27 @@ def test_reference_return_makes_the_position_unknown_until_an_absolute_move():
 def test_g50_sets_the_coordinates_and_with_s_only_clamps_the_spindle():
     result = moves("G18 G21 G99 F0.2\nG50 X200. Z100.\nG50 S2000\nG01 W-10.\n")
     assert geometry(result[-1])[2:4] == ((100.0, 100.0), (100.0, 90.0))
+
+
+@settings(max_examples=60)
+@given(words=st.lists(st.sampled_from(["X", "Z", "U", "W"]), unique=True, min_size=1, max_size=2),
+       values=st.lists(st.integers(-2000, 2000), min_size=2, max_size=2), system=st.sampled_from("ABC"),
+       incremental=st.booleans())
+def test_coordinate_setting_gives_the_tool_the_coordinates_a_move_with_its_words_would_end_at(
+        words, values, system, incremental):
+    """G50 (G92 in systems B and C) leaves the tool where it is and names its coordinates: X and
+    Z as the distance mode reads them, U and W added to the old ones (``G50 W-5.`` at Z-10 makes
+    it Z-15). The next move starts there, exactly where a move with the same words would end."""
+    if {"X", "U"} <= set(words) or {"Z", "W"} <= set(words) or (system != "A" and ({"U", "W"} & set(words))):
+        return  # one word per axis; U and W are X and Z incremental in system A only
+    code = "G50" if system == "A" else "G92"
+    mode = "" if system == "A" else ("G91 " if incremental else "G90 ")
+    named = " ".join(f"{letter}{value / 10:.1f}" for letter, value in zip(words, values))
+    start = "G18 G21 F0.2\nG00 X100. Z10.\n"
+    after = moves(start + f"{mode}{code} {named}\nG01 W0. U0.\n" if system == "A"
+                  else start + f"{mode}{code} {named}\nG91 G01 Z0.\n", gcode_system=system)[-1]
+    moved = moves(start + f"{mode}G00 {named}\n", gcode_system=system)[-1]
+    assert (after.x0, after.z0) == pytest.approx((moved.x1, moved.z1))
 
 
 def test_work_offset_change_loses_the_position():
