@@ -251,7 +251,7 @@ class WordConversion:
             # The tool stays; its coordinates become those a move with these words would end at:
             # X and Z as the distance mode reads them, U and W added to the old ones (G50 W-5.).
             self.x, self.z = self._target(words, block)
-            return Step(block, (), self.modal)
+            return Step(block, (), self.modal, names_position=self.modal.absolute and ("X" in values or "Z" in values))
         if meaning in (G.HOME, G.HOME2):
             return self._reference_return(block, words)
         if meaning == G.MACHINE:
@@ -275,7 +275,7 @@ class WordConversion:
             return Step(block, (move,), self.modal)
         if meaning in (G.LOCAL, G.PRESET):
             self.x = self.z = None
-            return Step(block, (), self.modal)
+            return Step(block, (), self.modal, names_position=meaning == G.PRESET)
         if meaning == G.MACRO_CALL:
             self.reporter.warn(
                 "macro call G65: what the macro does is not interpreted; the position and the motion mode are "

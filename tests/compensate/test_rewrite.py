@@ -490,4 +490,25 @@ def test_no_move_joins_the_end_in_one_work_frame_to_a_block_in_another(change):
     lines = out.splitlines()
     after = lines.index(change)
     assert lines[after + 1] == "G01 X60. Z-30."
-    assert "X40. Z-10." not in lines  # the block before the change was corrected
+    assert lines[:after] != text.splitlines()[:5]  # the blocks before the change were corrected
+
+
+@pytest.mark.parametrize("system, naming, names", [
+    ("A", "G50 X40. Z-10.", True), ("A", "G50 Z-10.", True), ("A", "G50 X40. W-2.", True), ("A", "G50.3 P0", True),
+    ("B", "G92 X40. Z-10.", True), ("B", "G92.1 X0 Z0", True), ("A", "G50 W-5.", False), ("A", "G50 S2000", False),
+    ("B", "G91 G92 Z-5.", False),
+])
+def test_a_block_that_names_where_the_tool_stands_finds_it_at_the_nominal_end(system, naming, names):
+    """G50 X/Z (G92 in systems B and C) and the presets name the coordinates of wherever the tool
+    was sent: after a corrected move that is the corrected end, and the frame set there would
+    carry the correction, a constant shift of every block after it. The tool goes back to the
+    move's nominal end first. A shift by U/W, or a spindle clamp, names nothing and adds nothing."""
+    mode = "G90 " if system == "B" else ""
+    text = (f"G18 G21 G99 F0.1\n{mode}G00 X20. Z5.\nG01 Z0.\nX40. Z-10.\n{naming}\nG00 X100.\n")
+    shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
+    out, _ = rewrite(text, shift, profile=replace(DEFAULT, gcode_system=system), tolerance=0.001)
+    lines = out.splitlines()
+    before = lines[: lines.index(naming)]
+    assert before[3] != "X40. Z-10."  # the move before it was corrected
+    ends = [m for m in moves("\n".join(before) + "\n", gcode_system=system) if m.kind == LINE]
+    assert ((ends[-1].x1, ends[-1].z1) == pytest.approx((20.0, -10.0))) == names
