@@ -107,7 +107,7 @@ class WordConversion:
                 self.modal = replace(self.modal, motion=None)
                 raise _Uninterpretable(
                     f"{G.code_name(key)} is not a G code this interpreter knows (G-code system {self.profile.gcode_system}; "
-                    "FANUC alarm PS0010 on a control without it)",
+                    f"FANUC alarm PS0010 on a control without it){G.elsewhere(key, self.profile.gcode_system)}",
                     self._col(block, "G"),
                 )
             kind, meaning = entry
