@@ -395,7 +395,9 @@ def _checked(name: str, shifts, pieces: list[Piece]) -> list[np.ndarray | None]:
 
 def _units_and_plane(steps, system: str) -> tuple[Step | None, Step | None]:
     """(anchor, stop): the step by which the program has set its units and, if it sets it
-    before, its plane, looked for before ``stop``, its first tool call or move (None: the end)."""
+    before, its plane, looked for before ``stop``, its first tool call or move (None: the end).
+    A block behind a block delete ``/`` sets nothing for certain: with the switch on, the control
+    skips it, and the blocks added after it would be read in the units it was left in."""
     table = G.SYSTEMS[system]
     units = plane = stop = None
     for step in steps:
@@ -403,6 +405,8 @@ def _units_and_plane(steps, system: str) -> tuple[Step | None, Step | None]:
         if step.moves or any(letter == "T" for letter, _ in codes):
             stop = step
             break
+        if step.block.delete is not None:
+            continue
         for letter, value in codes:
             entry = table.get(G.code_key(float(value))) if letter == "G" and type(value) is str else None
             if entry is not None and entry[1] in (G.INCH, G.METRIC) and units is None:
