@@ -287,6 +287,17 @@ def test_macro_constants_are_evaluated_and_unknowns_pass_through_with_a_warning(
     assert any("cannot be interpreted" in str(w) and ":6:" in str(w) for w in reporter.warnings)
 
 
+@pytest.mark.parametrize("deleted", ["/#1 = 20.", "/2 #1 = 20.", "/IF [#3 EQ 0] THEN #1 = 20.", "/#[#1 - 9.] = 20."])
+def test_a_variable_set_behind_a_block_delete_holds_either_value(deleted):
+    """With the switch on the control skips the block and #1 stays 10; with it off #1 becomes 20.
+    Neither is the program's one value: a move that reads it is not interpreted (as a word block
+    behind '/' is not), never read with the value of the switch's one position."""
+    result = moves(START + f"#1 = 10.\n#3 = 0\n{deleted}\nG01 X#1 Z0.\n")
+    assert (result[-1].x1, result[-1].z1) == (None, 0.0)
+    result = moves(START + f"#1 = 10.\n#3 = 0\n{deleted.lstrip('/2 ')}\nG01 X#1 Z0.\n")
+    assert (result[-1].x1, result[-1].z1) == (10.0, 0.0)  # run without the '/', it sets #1 = 20.
+
+
 def test_jump_targets_forget_what_only_one_path_knew():
     program = START + "#1 = 5.\nN100\nG01 X#1\n#1 = #1 + 1\nIF [#1 LT 10] GOTO 100\n"
     result = moves(program)
