@@ -224,7 +224,10 @@ def _checked(name: str, value: Any, where: Location) -> Any:
         _within(name, value, where)
         return value
     if isinstance(default, float) or name == "tolerance":
-        if not _is_number(value) or not math.isfinite(value) or value <= 0:
+        if name in _ZERO_ALLOWED:
+            if not _is_number(value) or not math.isfinite(value) or value < 0:
+                raise OptionError(f"{name} must be a number, 0 or more ({_ZERO_ALLOWED[name]})", where)
+        elif not _is_number(value) or not math.isfinite(value) or value <= 0:
             raise OptionError(f"{name} must be a positive number", where)
         _within(name, value, where)
         return float(value)
@@ -232,6 +235,9 @@ def _checked(name: str, value: Any, where: Location) -> Any:
         raise OptionError(f"{name} must be a string", where)
     return value
 
+
+#: Numbers whose 0 is a setting of its own, and what it means.
+_ZERO_ALLOWED = {"nose_radius_mm": "0: the control does not offset the tool by its nose radius under G41/G42"}
 
 #: The sane range of each number a profile holds: beyond it, a typo or a unit slip (the
 #: tolerance and the maximum correction: :mod:`postproc.machine.bounds`).
@@ -324,7 +330,7 @@ MEANINGS = {
     "max_arc_radius": "An arc above this radius is written as lines (mm).",
     "min_block_time_s": "No block shorter than the feed covers in this time (s).",
     "max_spindle_rpm": "The spindle's top speed (bounds G96 near the axis).",
-    "nose_radius_mm": "No block under G41/G42 shorter than this (mm).",
+    "nose_radius_mm": "No block under G41/G42 shorter than this (mm); 0 if the control does not offset the tool.",
     "x_limits": "Soft limits of x [low, high], radius mm, work coordinates: a compensated move beyond is refused.",
     "z_limits": "Soft limits of z [low, high], mm, work coordinates.",
     "tolerance": "Default --tolerance, mm (0.002 is 2 um). Unset: 0.001 mm, or twice the output resolution.",
