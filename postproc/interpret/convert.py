@@ -140,7 +140,7 @@ class WordConversion:
         if words.literals:
             self._note_literals(block, words.literals, None if one_shot is None else one_shot[1])
 
-        if 98 in words.m or 99 in words.m or 30 in words.m or 2 in words.m:
+        if 98 in words.m or 99 in words.m or 30 in words.m or 2 in words.m or 198 in words.m:
             return self._program_flow(block, words)
         if one_shot is not None:
             return self._one_shot(block, words, one_shot[1])
@@ -329,9 +329,10 @@ class WordConversion:
         return Step(block, tuple(moves), self.modal)
 
     def _program_flow(self, block: Block, words: _Words) -> Step:
-        if 98 in words.m:
+        if 98 in words.m or 198 in words.m:  # M198: the subprogram is on an external device or the data server
+            call = 98 if 98 in words.m else 198
             self.reporter.warn(
-                "subprogram call M98: what the subprogram does is not interpreted; the position and the motion "
+                f"subprogram call M{call}: what the subprogram does is not interpreted; the position and the motion "
                 "mode are unknown until a block gives G00-G03 and both X and Z absolute",
                 self._location(block, self._col(block, "M")),
             )

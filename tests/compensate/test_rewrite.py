@@ -401,12 +401,15 @@ def test_a_block_that_moves_another_axis_is_never_split(axes, word, motion):
     ("", "C30.", False),  # where C stood is not known: a move
     ("C30.", "H0.", True), ("C30.", "H10.", False),  # incremental C
 ])
-def test_an_other_axis_word_that_moves_nothing_lets_the_block_split(before, word, split):
+@pytest.mark.parametrize("call", ["", "M98 P100", "M098 P100", "M198 P100", "M99 P5", "G65 P9000"])
+def test_an_other_axis_word_that_moves_nothing_lets_the_block_split(before, word, split, call):
     """A CAM post writes Y0. on every block of a mill-turn program: a word that sends its axis
     where it already is moves nothing, so the block is compensated as any other; a word that
-    moves the axis, or whose start is not known, keeps the block whole or refuses it."""
+    moves the axis, or whose start is not known, keeps the block whole or refuses it. After a
+    call or a return (M98, M198, M99, G65, however written), where the axis stands is not known."""
     profile = replace(DEFAULT, axes="XZCY")
-    text = f"G18 G21 G99\nG00 X20. Z5. {before}\nG01 Z0. F0.1\nG01 X60. Z-40. {word}\nG00 X100.\n"
+    text = f"G18 G21 G99\nG00 X20. Z5. {before}\n{call}\nG00 X20. Z5.\nG01 Z0. F0.1\nG01 X60. Z-40. {word}\nG00 X100.\n"
+    split = split and not (call and word.startswith(("Y", "C")))
     if split:
         out, rewriter = rewrite(text, wave(0.01), profile=profile, tolerance=0.001)
         assert rewriter.emitted > rewriter.replaced and out.count(word) == text.count(word)

@@ -304,14 +304,20 @@ def test_jump_targets_forget_what_only_one_path_knew():
     assert result[1].x1 is None and result[1].x0 is None
 
 
-@pytest.mark.parametrize("flow", ["M98 P2000", "G65 P9000 A1.", "M99", "M99 P100"])
+@pytest.mark.parametrize("flow", ["M98 P2000", "M098 P2000", "M198 P2000", "M198 P2000 L3", "G65 P9000 A1.", "M99",
+                                  "M99 P100"])
 def test_after_a_call_or_a_return_the_motion_mode_is_not_assumed(flow):
     """The subprogram may leave G00 where the caller had G01 (and M99 in a main program loops back
-    with whatever mode the last pass left): a block that relies on the mode is not interpreted."""
+    with whatever mode the last pass left): a block that relies on the mode is not interpreted.
+    M198 calls a subprogram kept on an external device or the data server: a call like M98."""
     reporter = Reporter()
-    result = steps("G18 G21 G99\nG00 X20. Z2.\nG01 Z0. F0.1\n" + flow + "\nX30. Z-5.\nG01 X40. Z-10.\n", reporter)
-    after, explicit = result[-2:]
+    result = steps("G18 G21 G99\nG00 X20. Z2.\nG01 Z0. F0.1\n" + flow + "\nX30. Z-5.\nG01 X40. Z-10.\nW-2.\n",
+                   reporter)
+    after, explicit, incremental = result[-3:]
     assert not after.interpreted and explicit.interpreted and explicit.moves[0].kind == "line"
+    assert incremental.moves[0].known  # from the absolute end of the block before it
+    result = steps("G18 G21 G99\nG00 X20. Z2.\nG01 Z0. F0.1\n" + flow + "\nG01 W-5.\n", reporter)
+    assert result[-1].moves[0].z0 is None  # where the subprogram left the tool is not known
     assert any(":5:1: warning: block cannot be interpreted: the motion mode" in str(w) for w in reporter.warnings)
 
 
