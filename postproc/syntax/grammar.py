@@ -94,6 +94,19 @@ def _other_control(text: str) -> str:
 
 
 
+#: Characters a text program picks up on its way to postproc, and where from: the remedy is
+#: then the user's to take, not a guess at a binary file.
+_KNOWN_CHARACTERS = {
+    "\ufeff": "a byte order mark inside the program (files joined together, each with its mark?): delete it",
+    "\u00a0": "a no-break space (copied from a document or a web page?): type a plain space",
+    "\u200b": "a zero-width space (copied from a document or a web page?): delete it",
+    "\x1a": "a DOS end-of-file mark (Ctrl-Z): end the program with '%' before it, or delete it",
+    "\x0c": "a form feed (a page break from an editor): delete it",
+    "\u2212": "a minus sign from a word processor: type '-'",
+    "\u2013": "a dash from a word processor: type '-' for a minus",
+}
+
+
 def _explain(exc: LarkError, text: str) -> tuple[str, int]:
     """A message in the user's terms and the 0-based column of the mistake."""
     if isinstance(exc, UnexpectedCharacters):
@@ -105,7 +118,8 @@ def _explain(exc: LarkError, text: str) -> tuple[str, int]:
         if char == ")":
             return "')' without a '(' opening a comment", col
         if char and (not char.isprintable() or ord(char) > 126):
-            return f"a character the control does not read (U+{ord(char):04X}): is this a text program?", col
+            known = _KNOWN_CHARACTERS.get(char, "is this a text program?")
+            return f"a character the control does not read (U+{ord(char):04X}): {known}", col
         if char == "." and before and (before[-1].isdigit() or before[-1] == "."):
             return "a second decimal point in one number (FANUC alarm PS0007)", col
         if char.isdigit() or char in "+-.":

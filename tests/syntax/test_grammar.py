@@ -234,3 +234,22 @@ def test_no_line_of_a_fanuc_program_is_taken_for_another_controls():
     for text in ["G00 X1.; G01 Z1.", "G01 X1. N10", "#1 = [2 + 3", "G00 X1. (open", "G01 X10. ,C1.", "10 G01 X1.",
                  "IF [#1 EQ 1] GOTO"]:
         assert _other_control(text) == "", text
+
+
+@pytest.mark.parametrize("char, remedy", [
+    ("\ufeff", "a byte order mark inside the program"), ("\u00a0", "a no-break space"),
+    ("\u200b", "a zero-width space"), ("\x1a", "a DOS end-of-file mark (Ctrl-Z): end the program with '%' before it"),
+    ("\x0c", "a form feed"), ("\u2212", "a minus sign from a word processor: type '-'"),
+    ("\u2013", "a dash from a word processor"), ("\x00", "is this a text program?"), ("\u0661", "is this a text program?"),
+])
+@pytest.mark.parametrize("where", ["{}G01 X10.", "G01 X10.{}", "G01 {}X10. Z-5."])
+def test_a_stray_character_a_text_program_picks_up_is_named_with_its_remedy(char, remedy, where):
+    """A joined file's byte order mark, a space or a minus copied from a document, a DOS Ctrl-Z:
+    the error names the character, where it comes from and what to do, wherever it stands; a
+    character of no known origin asks whether the file is a text program at all."""
+    text = where.format(char)
+    with pytest.raises(ProgramSyntaxError) as info:
+        parse(text)
+    assert info.value.message == f"a character the control does not read (U+{ord(char):04X}): " + \
+        info.value.message.split("): ", 1)[1]
+    assert remedy in info.value.message and info.value.location.col == text.index(char) + 1
