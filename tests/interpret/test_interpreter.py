@@ -427,3 +427,17 @@ def test_every_interpretation_error_has_a_column_and_a_caret(program, where):
     shown = format_message("error", caught.value.message, location).splitlines()
     assert shown[0].startswith(f"t.nc:{line + 1}:{location.col}: error: ")
     assert shown[1] == "    " + program.splitlines()[line - 1] and shown[2] == "    " + " " * (location.col - 1) + "^"
+
+
+def test_each_program_of_a_file_numbers_its_own_contour_blocks():
+    """A main program and its local subprogram each number their blocks from N10: the control
+    looks for a cycle's P and Q in the program that runs it, so neither contour is ambiguous, and
+    a G70 finishes its own program's contour. Two N10s in one program still are ambiguous."""
+    main = ("O0001\nG18 G21 G99\nG00 X52. Z2.\nG71 U2. R1.\nG71 P10 Q20 U0.4 W0.1 F0.25\nN10 G00 X20.\n"
+            "G01 Z0. F0.1\nN20 G01 X52.\nG70 P10 Q20\nM98 P0002\nM30\n")
+    sub = "O0002\nN10 G00 X40.\nG01 Z-22. F0.1\nN20 G01 X52.\nG00 Z-20.\nG70 P10 Q20\nM99\n"
+    result = moves(main + sub)
+    finish = [m for m in result if m.line in (13, 14, 15)]  # the subprogram's contour, run by its G70
+    assert [(m.line, m.x1, m.z1) for m in finish][-3:] == [(13, 20.0, -20.0), (14, 20.0, -22.0), (15, 26.0, -22.0)]
+    with pytest.raises(InterpretationError, match="N10 stands on 2 blocks"):
+        moves(main.replace("M98 P0002\n", "N10 M08\n"))
