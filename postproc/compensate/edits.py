@@ -102,8 +102,9 @@ def _one_block_for_other_axes(entry: Entry, count: int, file: str, joined: bool 
         Location(file, block.line, word.col + 1, block.text), OTHER_AXIS, f"{cause} ({OTHER_AXIS})")
 
 
-#: M98/M99 and G65/G66 (as the reader keys G codes): a call or return, after which the other axes' places are unknown
-_CALLS = {("M", "98"), ("M", "99"), ("G", 650), ("G", 660)}
+#: M98/M99, M198 and G65/G66 (as the reader keys G codes; M as written, leading zero or not): a call or
+#: return, after which the other axes' places are unknown
+_CALLS = {("M", "98"), ("M", "098"), ("M", "99"), ("M", "099"), ("M", "198"), ("G", 650), ("G", 660)}
 
 #: The incremental address of another axis (FANUC G-code system A): H for C, V for Y.
 _INCREMENTAL_OF = {"H": "C", "V": "Y"}

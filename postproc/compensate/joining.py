@@ -78,6 +78,20 @@ class Joining:
         elif self._end_would_move(entry, last_edit.end, nominal):
             self._retarget(entry, start=last_edit.end)
 
+    def _back_to_nominal(self, previous: Entry) -> None:
+        """The tool goes back to the nominal end of ``previous`` before a block that names the
+        coordinates of where it stands (G50 X/Z, G92 in systems B and C, a preset): named at the
+        corrected end, the frame would carry that correction, a constant shift of every block
+        after it. Nothing is joined across such a block."""
+        moves = previous.step.moves
+        along = [index for index, move in enumerate(moves) if move.role in _ALONG]
+        if not along:
+            return
+        last_move, last_edit = moves[along[-1]], previous.edits[along[-1]]
+        if last_edit is None or None in (last_move.x1, last_move.z1):
+            return
+        last_edit.lead_out = self._connector(last_edit.end, (last_move.x1, last_move.z1), previous.step)
+
     def _simple(self, entry: Entry) -> bool:
         """A block with one plain line or rapid that can be rewritten with other end points."""
         step = entry.step

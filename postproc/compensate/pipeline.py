@@ -253,6 +253,8 @@ class Pipeline:
         if blocks and anchor is None:
             where = Location(source.name, stop.block.line, 1, stop.block.text) if stop is not None else Location(source.name)
             what = "its first tool call or move" if stop is not None else "its end"
+            if stop is not None and _sets_units(stop, self.profile.gcode_system):
+                what += " (it sets them in that block: the opening blocks go before the tool moves or is called)"
             raise SafetyError(f"the program sets no units (G20/G21) before {what}: {', '.join(t for _, t in blocks)} "
                               "would be read in whatever units the control was left in; set the units in the "
                               "program's opening blocks", where)
@@ -393,9 +395,17 @@ def _checked(name: str, shifts, pieces: list[Piece]) -> list[np.ndarray | None]:
     return checked
 
 
+def _sets_units(step: Step, system: str) -> bool:
+    table = G.SYSTEMS[system]
+    return any(letter == "G" and type(value) is str and table.get(G.code_key(float(value)), (None, None))[1]
+               in (G.INCH, G.METRIC) for letter, value in step.block.codes)
+
+
 def _units_and_plane(steps, system: str) -> tuple[Step | None, Step | None]:
     """(anchor, stop): the step by which the program has set its units and, if it sets it
-    before, its plane, looked for before ``stop``, its first tool call or move (None: the end)."""
+    before, its plane, looked for before ``stop``, its first tool call or move (None: the end).
+    A block behind a block delete ``/`` sets nothing for certain: with the switch on, the control
+    skips it, and the blocks added after it would be read in the units it was left in."""
     table = G.SYSTEMS[system]
     units = plane = stop = None
     for step in steps:
@@ -403,11 +413,13 @@ def _units_and_plane(steps, system: str) -> tuple[Step | None, Step | None]:
         if step.moves or any(letter == "T" for letter, _ in codes):
             stop = step
             break
+        if step.block.delete is not None:
+            continue
+        if units is None and _sets_units(step, system):
+            units = step
         for letter, value in codes:
             entry = table.get(G.code_key(float(value))) if letter == "G" and type(value) is str else None
-            if entry is not None and entry[1] in (G.INCH, G.METRIC) and units is None:
-                units = step
-            elif entry is not None and entry[1] == G.PLANE_ZX and plane is None:
+            if entry is not None and entry[1] == G.PLANE_ZX and plane is None:
                 plane = step
     if units is not None and plane is not None and plane.block.line > units.block.line:
         return plane, stop

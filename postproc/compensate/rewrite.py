@@ -125,7 +125,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
                     self._pending.append(entry)
                     if step.contour_end or not step.in_contour:
                         yield from self._release()
-                elif entry.refusal is None and not entry.motion:
+                elif entry.refusal is None and not entry.motion and not step.names_position:
                     self._window.append(entry)
                 else:
                     for waiting in self._take(entry):  # each written as its lines are asked for
@@ -173,6 +173,9 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
         if entry.refusal is not None:
             raise entry.refusal
         if not entry.motion:
+            if entry.step.names_position and self._previous is not None:
+                self._back_to_nominal(self._previous)  # the frame it names is the program's, not a corrected one
+                self._previous = None
             self._window.append(entry)
             return []
         if entry.edited:

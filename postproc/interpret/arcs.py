@@ -17,6 +17,18 @@ from ..syntax.fastpath import CanonicalLine
 from .state import _CYCLE_KIND, _MOTION_KIND, _Uninterpretable, _Words
 
 
+#: Words that change a motion block's path when the lathe lacks the axis they would name: the
+#: letter, that axis, what the control makes of it instead (FANUC parameter 3405 bit 4, CCR:
+#: chamfer, corner R and direct drawing dimensions without a comma). Read as nothing, ``X50. A150.``
+#: would become a move along X alone, and a corrected block would drop the angle the control
+#: computes Z from: the block passes through uninterpreted instead.
+_PATH_WORDS = (
+    ("C", "C", "a chamfer by parameter 3405 bit 4, or a C axis"),
+    ("A", "A", "the angle of direct drawing dimension programming (parameter 3405 bit 4), or an A axis"),
+    ("H", "C", "the C axis moved incrementally, on a lathe whose profile has no C axis"),
+)
+
+
 class MotionAndArcs:
     """Motion and arcs, mixed into :class:`~postproc.interpret.interpreter.Interpreter`."""
 
@@ -91,6 +103,9 @@ class MotionAndArcs:
                 unknown_axes="".join(a for a, v in (("X", x1), ("Z", z1)) if v is None),
                 target=(x1, z1),
             )
+        for letter, axis, meaning in _PATH_WORDS:
+            if letter in values and axis not in self.profile.axes:
+                raise _Uninterpretable(f"{letter} in a motion block: {meaning}", self._col(block, letter))
         if isinstance(motion, str):
             self._need_feed(block, words, _CYCLE_KIND[motion], motion)
             return self._single_cycle(block, words, motion, x1, z1)
@@ -106,8 +121,6 @@ class MotionAndArcs:
                     f"{letter} in a G01 block (chamfering or corner R by the control's parameter 3405, or direct drawing)",
                     self._col(block, letter[-1]),
                 )
-        if "C" in values and "C" not in self.profile.axes:
-            raise _Uninterpretable("C in a motion block: chamfering by parameter, or a C axis", self._col(block, "C"))
         move = self._move(kind, block, x1, z1, exact=None not in (x1, z1))
         self.x, self.z = x1, z1
         step = Step(block, (move,), self.modal)

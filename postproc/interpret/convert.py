@@ -107,7 +107,7 @@ class WordConversion:
                 self.modal = replace(self.modal, motion=None)
                 raise _Uninterpretable(
                     f"{G.code_name(key)} is not a G code this interpreter knows (G-code system {self.profile.gcode_system}; "
-                    "FANUC alarm PS0010 on a control without it)",
+                    f"FANUC alarm PS0010 on a control without it){G.elsewhere(key, self.profile.gcode_system)}",
                     self._col(block, "G"),
                 )
             kind, meaning = entry
@@ -122,7 +122,7 @@ class WordConversion:
                     )
                 one_shot = (key, meaning)
             elif kind == G.MODAL:
-                modal = self._modal_setting(modal, meaning, key)
+                modal = self._modal_setting(modal, meaning, key, words)
             elif kind == G.CANCEL and one_shot is None:
                 one_shot = (key, G.DATA)  # "G50.1 X0.": the words name the mode's axes, they are no move
             elif kind == G.UNMODELLED and not (meaning == G.CYLINDRICAL and self._cancels_cylindrical(words)):
@@ -140,7 +140,7 @@ class WordConversion:
         if words.literals:
             self._note_literals(block, words.literals, None if one_shot is None else one_shot[1])
 
-        if 98 in words.m or 99 in words.m or 30 in words.m or 2 in words.m:
+        if 98 in words.m or 99 in words.m or 30 in words.m or 2 in words.m or 198 in words.m:
             return self._program_flow(block, words)
         if one_shot is not None:
             return self._one_shot(block, words, one_shot[1])
@@ -158,7 +158,7 @@ class WordConversion:
                 return self._motion(block, words)  # an arc in another plane moves X or Z on its way: say so
         return Step(block, (), self.modal)
 
-    def _modal_setting(self, modal: Modal, meaning, key: int) -> Modal:
+    def _modal_setting(self, modal: Modal, meaning, key: int, words: _Words) -> Modal:
         if meaning == G.INCH:
             return replace(modal, inch=True)
         if meaning == G.METRIC:
@@ -176,10 +176,11 @@ class WordConversion:
         if meaning in (G.PLANE_XY, G.PLANE_ZX, G.PLANE_YZ):
             return replace(modal, plane=key // 10)
         if meaning == G.WORK:
-            if self._work != key:
+            system = (key, words.values.get("P")) if key == 541 else key  # G54.1 P1..P300: P names the system
+            if self._work != system:
                 if self._work is not None:
                     self.x = self.z = None  # another work coordinate system: where are we in it?
-                self._work = key
+                self._work = system
             return modal
         if meaning == G.DRILL:
             self._drilling = True
@@ -241,23 +242,16 @@ class WordConversion:
     def _one_shot(self, block: Block, words: _Words, meaning: str) -> Step:
         values = words.values
         if meaning in (G.DWELL, G.DATA, G.CORNER_ARC):  # G39's I and K give a direction, not a position
+            if meaning == G.DATA and 100 in words.g and self._shifts_work_coordinates(words):
+                self._forget_shifted_axes(words)
             return Step(block, (), self.modal)
         if meaning == G.COORDINATE:
             if "S" in values:
                 self.modal = replace(self.modal, clamp=values["S"])
-            if any(letter in values for letter in "XZ") or any(letter in words.unknown for letter in "XZ"):
-                x, z = self.x, self.z
-                diameter = 0.5 if self.profile.diameter_x else 1.0
-                if "X" in values:
-                    x = values["X"] * diameter
-                if "Z" in values:
-                    z = values["Z"]
-                if "X" in words.unknown:
-                    x = None
-                if "Z" in words.unknown:
-                    z = None
-                self.x, self.z = x, z
-            return Step(block, (), self.modal)
+            # The tool stays; its coordinates become those a move with these words would end at:
+            # X and Z as the distance mode reads them, U and W added to the old ones (G50 W-5.).
+            self.x, self.z = self._target(words, block)
+            return Step(block, (), self.modal, names_position=self.modal.absolute and ("X" in values or "Z" in values))
         if meaning in (G.HOME, G.HOME2):
             return self._reference_return(block, words)
         if meaning == G.MACHINE:
@@ -281,7 +275,7 @@ class WordConversion:
             return Step(block, (move,), self.modal)
         if meaning in (G.LOCAL, G.PRESET):
             self.x = self.z = None
-            return Step(block, (), self.modal)
+            return Step(block, (), self.modal, names_position=meaning == G.PRESET)
         if meaning == G.MACRO_CALL:
             self.reporter.warn(
                 "macro call G65: what the macro does is not interpreted; the position and the motion mode are "
@@ -301,6 +295,23 @@ class WordConversion:
             return Step(block, (move,), self.modal)
         raise AssertionError(meaning)
 
+    @staticmethod
+    def _shifts_work_coordinates(words: _Words) -> bool:
+        """G10 L2 (G54-G59, P0 the external offset), G10 L20 (G54.1 Pn) and G10 P0 without L (the
+        lathe's workpiece shift) move a work coordinate system, perhaps the one in force: the tool
+        stays where it is, and its coordinates change by the old offset, which only the control knows."""
+        if "L" in words.unknown:
+            return True
+        level = words.values.get("L")
+        return level in (2, 20) or (level is None and words.values.get("P") == 0)
+
+    def _forget_shifted_axes(self, words: _Words) -> None:
+        named = words.values.keys() | words.unknown.keys()
+        if named & {"X", "U"}:
+            self.x = None
+        if named & {"Z", "W"}:
+            self.z = None
+
     def _reference_return(self, block: Block, words: _Words) -> Step:
         values = words.values
         named = [axis for axis, letters in (("X", "XU"), ("Z", "ZW")) if any(l in values for l in letters)]
@@ -318,9 +329,10 @@ class WordConversion:
         return Step(block, tuple(moves), self.modal)
 
     def _program_flow(self, block: Block, words: _Words) -> Step:
-        if 98 in words.m:
+        if 98 in words.m or 198 in words.m:  # M198: the subprogram is on an external device or the data server
+            call = 98 if 98 in words.m else 198
             self.reporter.warn(
-                "subprogram call M98: what the subprogram does is not interpreted; the position and the motion "
+                f"subprogram call M{call}: what the subprogram does is not interpreted; the position and the motion "
                 "mode are unknown until a block gives G00-G03 and both X and Z absolute",
                 self._location(block, self._col(block, "M")),
             )

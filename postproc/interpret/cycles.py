@@ -38,7 +38,7 @@ class ContourCycles:
             moves: tuple[Move, ...] = (cycle_move,)
         else:
             moves = ()
-        recorded = self.contours.get((p, q))
+        recorded = self.contours.get((p, q, p_line))  # by its place: each program of a file has its own N10
         if p_line > block.line:
             contour = _Contour(p, q, block.line, start=start, meaning=meaning)
             self._expect = (contour, self.modal, start, name, meaning)
@@ -85,7 +85,11 @@ class ContourCycles:
                 self._location(block, self._col(block, letter)),
             )
         if count > 1:
-            lines = self.labels.lines[label]
+            lines = self.labels.in_program_of(label, block.line)  # each program of the file numbers its own blocks
+            if len(lines) == 1:
+                return lines[0]
+            lines = lines if len(lines) > 1 else self.labels.lines[label]
+            count = len(lines)
             raise InterpretationError(
                 f"{name} {letter}{label}: N{label} stands on {count} blocks (lines {lines[0]}, {lines[1]}...); "
                 "the contour is ambiguous",
@@ -105,7 +109,7 @@ class ContourCycles:
             self._skip_until = contour.q
             return
         self._capture = _Capture(contour, modal, start)
-        self.contours[(contour.p, contour.q)] = contour
+        self.contours[(contour.p, contour.q, block.line)] = contour
 
     def _contour_block(self, block: Block) -> bool:
         """Keep a contour block; after its Q block, resume at the cycle's start point."""
@@ -123,7 +127,7 @@ class ContourCycles:
         if self._reread is None:
             raise InterpretationError(f"contour N{p}..N{q} cannot be read again here", self._location(block, self._col(block, "P")))
         contour = _Contour(p, q, block.line, blocks=list(self._reread(p_line, q_line)))
-        self.contours[(p, q)] = contour
+        self.contours[(p, q, p_line)] = contour
         return contour
 
     def _replay(self, contour: _Contour, block: Block) -> tuple[Move, ...]:

@@ -246,6 +246,26 @@ def code_name(key: int) -> str:
     return f"G{whole:02d}" if tenth == 0 else f"G{whole:02d}.{tenth}"
 
 
+_DESCRIBED = {G32: "threading", PER_REV: "feed per revolution", PER_MINUTE: "feed per minute",
+              ABSOLUTE: "absolute programming", INCREMENTAL: "incremental programming", INCH: "inch input",
+              METRIC: "metric input", TURN_CYCLE: "the turning cycle", THREAD_CYCLE: "the threading cycle",
+              FACE_CYCLE: "the facing cycle", COORDINATE: "coordinate system setting"}
+
+
+def elsewhere(key: int, system: str) -> str:
+    """For a code that ``system`` lacks, what the other G-code systems make of it, as a note for
+    the warning ('' when none has it): G95 or G91 in a system-A reading most often means the
+    program was written for a control set to system B or C, and every G90 and G92 in it then
+    means something else too."""
+    others = [name for name in sorted(SYSTEMS) if name != system and key in SYSTEMS[name]]
+    if not others:
+        return ""
+    meaning = SYSTEMS[others[0]][key][1]
+    described = _DESCRIBED.get(meaning, str(meaning).replace("-", " "))
+    return (f"; in G-code system {' and '.join(others)} it is {code_name(key)} ({described}): if the control is set to "
+            f"{'that system' if len(others) == 1 else 'one of them'}, state gcode_system in the machine profile")
+
+
 def motion_code(system: str, mode: int | str) -> int:
     """The G code key that commands a motion mode in this system (for writing blocks)."""
     for key, (kind, value) in SYSTEMS[system].items():

@@ -74,7 +74,7 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
         self.z: float | None = None
         self.modal = Modal(motion=G.G00, inch=False, absolute=True, per_rev=True)
         self.variables: dict[int, float | None] = {}
-        self.contours: dict[tuple[int, int], _Contour] = {}
+        self.contours: dict[tuple[int, int, int], _Contour] = {}  #: by P, Q and the P block's line
         self._capture: _Capture | None = None
         self._expect: tuple[_Contour, Modal, tuple] | None = None
         self._skip_until: int | None = None  # label ending a region that cannot be interpreted (or _UNMODELLED_REGION)

@@ -127,3 +127,6 @@ class Step:
     cycle: str | None = None  #: for a contour block, what its cycle does (gcodes.ROUGH_TURN for a G71...)
     contour_start: bool = False  #: the block is its contour's first (the P label): the approach from the start point
     shared: bool = False  #: the block is in a local subprogram called from more than one place
+    #: the block names the coordinates of where the tool stands (G50 X/Z, G92 in systems B and C,
+    #: a preset G50.3/G92.1): the frame it sets follows wherever the tool was sent before it
+    names_position: bool = False

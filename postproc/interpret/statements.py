@@ -25,18 +25,18 @@ class MacroStatements:
 
         statement = block.statement
         kind = type(statement)
-        if kind is macro.Assignment:
-            self._assign(statement, block)
-        elif kind is macro.IfThen:
-            condition = self._evaluate(statement.condition, block)
-            if condition is UNKNOWN:
-                target = self._variable_number(statement.then.target, block)
+        if kind is macro.Assignment or kind is macro.IfThen:
+            assignment = statement if kind is macro.Assignment else statement.then
+            condition = True if kind is macro.Assignment else self._evaluate(statement.condition, block)
+            if condition is UNKNOWN or (condition and block.delete is not None):
+                # whether it is made depends on the data, or on the block delete switch: either value may follow
+                target = self._variable_number(assignment.target, block)
                 if target is None:
                     self.variables = {}
                 else:
                     self.variables.pop(target, None)
             elif condition:
-                self._assign(statement.then, block)
+                self._assign(assignment, block)
         elif kind is macro.IfGoto:
             condition = self._evaluate(statement.condition, block)
             if condition is not UNKNOWN and condition:

@@ -158,12 +158,31 @@ def from_mapping(data: dict[str, Any], origin: str = "<profile>", text: str | No
         bounds.tolerance(profile.tolerance, profile.max_correction, "tolerance =", at("tolerance"))
     if profile.gcode_system not in ("A", "B", "C"):
         raise OptionError("gcode_system must be A, B or C", at("gcode_system"))
+    _known_axes(profile.axes, at("axes"))
     if profile.input_increment not in INCREMENTS:
         raise OptionError(f"input_increment must be one of {', '.join(INCREMENTS)}", at("input_increment"))
     for unit, inch in (("mm", False), ("inch", True)):
         _readable_decimals(profile, unit, inch, at(f"output_decimals_{unit}" if f"output_decimals_{unit}" in values
                                                    else "input_increment"))
     return profile
+
+
+#: The axis addresses of a FANUC lathe (system A): X and Z, a C axis (spindle positioning or Cs
+#: contouring), Y on a mill-turn, B for a second spindle or a tailstock, A for a tilting head.
+#: U, W, H and V are the incremental addresses of X, Z, C and Y, not axes.
+_AXIS_LETTERS = "XZCYBA"
+
+
+def _known_axes(axes: str, where: Location) -> None:
+    """Refuse an ``axes`` the lathe cannot have: a letter that is no axis address (``XZU``: U
+    is X written incrementally, and every U word would be read as another axis's move), a
+    lowercase one (``xzc`` would leave the C words read as chamfers), a letter twice, or no
+    X or Z."""
+    wrong = [letter for letter in axes if letter not in _AXIS_LETTERS]
+    if wrong or len(set(axes)) != len(axes) or "X" not in axes or "Z" not in axes:
+        raise OptionError(f"axes = {axes!r}: the lathe's axis letters, each once, X and Z among them, from "
+                          f"{', '.join(_AXIS_LETTERS)} in capitals (U, W, H and V are the incremental addresses of X, "
+                          "Z, C and Y, not axes): for example \"XZ\" or \"XZC\"", where)
 
 
 def _readable_decimals(profile: MachineProfile, unit: str, inch: bool, where: Location) -> None:
@@ -205,7 +224,10 @@ def _checked(name: str, value: Any, where: Location) -> Any:
         _within(name, value, where)
         return value
     if isinstance(default, float) or name == "tolerance":
-        if not _is_number(value) or not math.isfinite(value) or value <= 0:
+        if name in _ZERO_ALLOWED:
+            if not _is_number(value) or not math.isfinite(value) or value < 0:
+                raise OptionError(f"{name} must be a number, 0 or more ({_ZERO_ALLOWED[name]})", where)
+        elif not _is_number(value) or not math.isfinite(value) or value <= 0:
             raise OptionError(f"{name} must be a positive number", where)
         _within(name, value, where)
         return float(value)
@@ -213,6 +235,9 @@ def _checked(name: str, value: Any, where: Location) -> Any:
         raise OptionError(f"{name} must be a string", where)
     return value
 
+
+#: Numbers whose 0 is a setting of its own, and what it means.
+_ZERO_ALLOWED = {"nose_radius_mm": "0: the control does not offset the tool by its nose radius under G41/G42"}
 
 #: The sane range of each number a profile holds: beyond it, a typo or a unit slip (the
 #: tolerance and the maximum correction: :mod:`postproc.machine.bounds`).
@@ -300,12 +325,12 @@ MEANINGS = {
     "calculator_input": "true: a length without a decimal point is in mm or inches (parameter 3401 DPI); false: in "
                         "increments. Unset: compensate refuses a program that mixes both spellings.",
     "label_skip": "The control skips from the opening % to the first end of block.",
-    "axes": "The axes the lathe has; any other axis address is refused.",
+    "axes": "The axes the lathe has (X Z C Y B A, X and Z among them); any other axis address is refused.",
     "arc_radius_tolerance": "The control's arc check: start and end radius may differ by this (mm).",
     "max_arc_radius": "An arc above this radius is written as lines (mm).",
     "min_block_time_s": "No block shorter than the feed covers in this time (s).",
     "max_spindle_rpm": "The spindle's top speed (bounds G96 near the axis).",
-    "nose_radius_mm": "No block under G41/G42 shorter than this (mm).",
+    "nose_radius_mm": "No block under G41/G42 shorter than this (mm); 0 if the control does not offset the tool.",
     "x_limits": "Soft limits of x [low, high], radius mm, work coordinates: a compensated move beyond is refused.",
     "z_limits": "Soft limits of z [low, high], mm, work coordinates.",
     "tolerance": "Default --tolerance, mm (0.002 is 2 um). Unset: 0.001 mm, or twice the output resolution.",

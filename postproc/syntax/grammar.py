@@ -52,10 +52,10 @@ def parse_block(text: str, line: int, eol: str, file: str) -> Block:
         tree = parser().parse(text)
         return _block_from_tree(tree, text, line, eol)
     except _LineSyntaxError as exc:
-        raise ProgramSyntaxError(exc.message, Location(file, line, exc.col + 1, text)) from None
+        raise ProgramSyntaxError(exc.message + _other_control(text), Location(file, line, exc.col + 1, text)) from None
     except LarkError as exc:
         message, col = _explain(exc, text)
-        raise ProgramSyntaxError(message, Location(file, line, col + 1, text)) from None
+        raise ProgramSyntaxError(message + _other_control(text), Location(file, line, col + 1, text)) from None
 
 
 def parse_detail(text: str) -> Detail:
@@ -65,6 +65,46 @@ def parse_detail(text: str) -> Detail:
 
 
 # ---------------------------------------------------------------- error messages
+
+#: What another control's programs write that a FANUC control refuses, by control: a program
+#: brought in by mistake is named as such, so that the error is not read as a typing mistake
+#: to be mended block by block. Matched against a line that failed to parse (another control's
+#: ``CYCLE95("K",1)`` reads to a FANUC control as a comment in parentheses).
+_OTHER_CONTROLS = (
+    ("a Siemens SINUMERIK", re.compile(
+        r"(?i)\bCYCLE\d{2,3}\s*\(|\b(?:MSG|TRANS|ATRANS|AC|IC)\s*\(|\bDIAM(?:ON|OF|90)\b|\bR\d+\s*=|"
+        r"\b(?:LIMS|CR|AR|RND|RNDM|CHR|CHF|ANG|SPOS|SF)\s*=|\bDEF\s+(?:REAL|INT|BOOL|STRING|AXIS|FRAME)\b|"
+        r"\bGOTO[FBC]\s|\bT\s*=\s*\"|\bG5[0-9]{2}\b|\bSUPA\b|\bMCALL\b")),
+    ("a HEIDENHAIN", re.compile(
+        r"(?i)^\s*\d+\s+(?:BEGIN\s+PGM|END\s+PGM|TOOL\s+CALL|CYCL\s+DEF|LBL\s|CALL\s+LBL|[LC]\s+[XZ][+-]|"
+        r"CC\s+[XZ]|RND\s+R|CHF\s)|\bFMAX\b")),
+    ("a LinuxCNC", re.compile(
+        r"(?i)#<[^>]*>|^\s*o\s*(?:<[^>]*>|\d+)\s*(?:sub|endsub|call|if|elseif|else|endif|while|endwhile|do|"
+        r"repeat|endrepeat|return|break|continue)\b")),
+    ("an Okuma OSP", re.compile(r"(?i)^\s*\$|\bNAT\d+|\bV[CS]\d+\s*=|^\s*N[A-Z]{2,}[A-Z0-9]*\s+G")),
+)
+
+def _other_control(text: str) -> str:
+    """A note for a line written for another control, or ''."""
+    for control, pattern in _OTHER_CONTROLS:
+        if pattern.search(text):
+            return (f" (this line is written for {control} control, not a FANUC one: postproc reads FANUC lathe "
+                    "programs; post the part for a FANUC control)")
+    return ""
+
+
+
+#: Characters a text program picks up on its way to postproc, and where from: the remedy is
+#: then the user's to take, not a guess at a binary file.
+_KNOWN_CHARACTERS = {
+    "\ufeff": "a byte order mark inside the program (files joined together, each with its mark?): delete it",
+    "\u00a0": "a no-break space (copied from a document or a web page?): type a plain space",
+    "\u200b": "a zero-width space (copied from a document or a web page?): delete it",
+    "\x1a": "a DOS end-of-file mark (Ctrl-Z): end the program with '%' before it, or delete it",
+    "\x0c": "a form feed (a page break from an editor): delete it",
+    "\u2212": "a minus sign from a word processor: type '-'",
+    "\u2013": "a dash from a word processor: type '-' for a minus",
+}
 
 
 def _explain(exc: LarkError, text: str) -> tuple[str, int]:
@@ -78,7 +118,8 @@ def _explain(exc: LarkError, text: str) -> tuple[str, int]:
         if char == ")":
             return "')' without a '(' opening a comment", col
         if char and (not char.isprintable() or ord(char) > 126):
-            return f"a character the control does not read (U+{ord(char):04X}): is this a text program?", col
+            known = _KNOWN_CHARACTERS.get(char, "is this a text program?")
+            return f"a character the control does not read (U+{ord(char):04X}): {known}", col
         if char == "." and before and (before[-1].isdigit() or before[-1] == "."):
             return "a second decimal point in one number (FANUC alarm PS0007)", col
         if char.isdigit() or char in "+-.":
@@ -102,7 +143,9 @@ def _explain(exc: LarkError, text: str) -> tuple[str, int]:
         if token.type == "SEQUENCE_NUMBER":
             return "a sequence number N must begin the block", col
         if last is not None and last.type == "EOB":
-            return "only comments and ';' may follow ';', the end of the block: the rest goes on a line of its own", col
+            return ("only comments and ';' may follow ';', the end of the block: the rest goes on a line of its own, a "
+                    "comment in parentheses (';' starts a comment on Siemens, HEIDENHAIN and LinuxCNC controls, not on a "
+                    "FANUC)"), col
         if last is not None and last.type == "ADDRESS":
             return f"address {last.upper()} has no value (FANUC alarm PS0005)", last.column - 1
         if last is not None and last.type == "SIGN":

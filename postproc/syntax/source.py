@@ -10,6 +10,7 @@ held in memory, and a run stopped at any moment, even by SIGKILL, leaves no copy
 
 from __future__ import annotations
 
+import bisect
 import io
 import os
 import re
@@ -25,6 +26,10 @@ CHUNK = 1 << 20
 MAX_PROGRAM_BYTES = 2 * 1024**3  #: 2 GiB: far beyond any control's memory
 
 _LABEL = re.compile(rb"(?m)^[ \t]*(?:/[1-9]?[ \t]*)?[Nn][ \t]*(\d+)")
+# A program's start in a file that holds several (a main program and its local subprograms):
+# O1234, :1234 or <NAME> opening a line. The control looks for a cycle's P and Q in the program
+# that runs it, so each program may number its blocks N10, N20... again.
+_PROGRAM = re.compile(rb"(?m)^[ \t%]*(?:[Oo:][ \t]*\d|<)")
 # Searched in lower-cased text, each starting with a literal: an alternation or a
 # case-blind pattern would be tried at every G of the program.
 _GOTO = re.compile(rb"goto[ \t]*(\d+|[#\[])")
@@ -58,16 +63,24 @@ class LabelIndex:
         self._scan = scan
         self._lines: dict[int, list[int]] | None = None if scan else {}
         self._counts: dict[int, int] | None = None if scan else {}
+        self._programs: list[int] = []
 
     def _labels(self) -> None:
         if self._lines is None:
-            self._lines, self._counts = self._scan()
+            self._lines, self._counts, self._programs = self._scan()
 
     @property
     def lines(self) -> dict[int, list[int]]:
-        """Label -> its first two line numbers."""
+        """Label -> the line numbers of the blocks that carry it, in order."""
         self._labels()
         return self._lines
+
+    def in_program_of(self, label: int, line: int) -> list[int]:
+        """The lines of the blocks carrying ``label`` in the program (O number to O number) that
+        holds ``line``."""
+        self._labels()
+        here = bisect.bisect_right(self._programs, line)
+        return [place for place in self._lines.get(label, ()) if bisect.bisect_right(self._programs, place) == here]
 
     @property
     def counts(self) -> dict[int, int]:
@@ -201,24 +214,29 @@ class Source:
                         computed = True
         return LabelIndex(targets, computed, calls, scan=self._label_places)
 
-    def _label_places(self) -> tuple[dict[int, list[int]], dict[int, int]]:
-        """Scan the whole program, a chunk at a time, for the lines of its sequence numbers."""
+    def _label_places(self) -> tuple[dict[int, list[int]], dict[int, int], list[int]]:
+        """Scan the whole program, a chunk at a time, for the lines of its sequence numbers and
+        of the program numbers that start each program the file holds."""
         lines: dict[int, list[int]] = {}
         counts: dict[int, int] = {}
+        programs: list[int] = []
         line = 1
         for chunk in self.chunks():
+            found = [(match.start(), match) for match in _LABEL.finditer(chunk)]
+            found += [(match.start(), None) for match in _PROGRAM.finditer(chunk)]
+            found.sort(key=lambda item: item[0])
             last = 0
-            for match in _LABEL.finditer(chunk):
-                start = match.start()
+            for start, match in found:
                 line += count_lines(chunk, last, start)
                 last = start
+                if match is None:
+                    programs.append(line)
+                    continue
                 label = int(match.group(1))
                 counts[label] = counts.get(label, 0) + 1
-                places = lines.setdefault(label, [])
-                if len(places) < 2:
-                    places.append(line)
+                lines.setdefault(label, []).append(line)
             line += count_lines(chunk, last, len(chunk))
-        return lines, counts
+        return lines, counts, programs
 
     def chunks(self, size: int = 1 << 20) -> Iterator[bytes]:
         """The file in pieces that end at a line ending, so that no line is split."""

@@ -69,7 +69,8 @@ PROGRAMS = [
     ("G00 X\x001.\n", "1:6: error: a character the control does not read (U+0000): is this a text program?"),
     ("G00 X\u0661\u0662.\n", "1:6: error: a character the control does not read (U+0661): is this a text program?"),
     ("G00 X1.; G01 Z1.\n", "1:10: error: only comments and ';' may follow ';', the end of the block: the rest goes on a "
-                            "line of its own"),
+                            "line of its own, a comment in parentheses (';' starts a comment on Siemens, HEIDENHAIN and "
+                            "LinuxCNC controls, not on a FANUC)"),
     ("G01 X1. N10\n", "1:9: error: a sequence number N must begin the block"),
     ("END1.\n", "1:1: error: END1.: the loop number of DO and END is 1, 2 or 3 (FANUC alarm PS0126)"),
     ("WHILE [#1 LT 3] DO 4\n", "1:17: error: DO4: the loop number of DO and END is 1, 2 or 3 (FANUC alarm PS0126)"),

@@ -324,6 +324,11 @@ def test_the_wear_offset_block_takes_the_programs_line_ending(tool_set, tmp_path
 @pytest.mark.parametrize("opening, problem", [
     ("G18 G40 G99\nT0101\n", "sets no units (G20/G21) before its first tool call or move"),
     ("T0101\nG18 G21 G40 G99\n", "sets no units (G20/G21) before its first tool call or move"),
+    # with the block delete switch on, the control skips the units: a G10 after them would be read in any
+    ("/G18 G21 G40 G99\nT0101\n", "sets no units (G20/G21) before its first tool call or move"),
+    ("/2 G21\nG18 G40 G99\nT0101\n", "sets no units (G20/G21) before its first tool call or move"),
+    ("G18 G40 G99\nG21 G00 X200. Z100.\nT0101\n", "before its first tool call or move (it sets them in that block: "
+                                                  "the opening blocks go before the tool moves or is called)"),
 ])
 def test_a_wear_offset_is_refused_where_the_units_are_not_set_before_the_tool_call(tool_set, tmp_path, opening,
                                                                                       problem):

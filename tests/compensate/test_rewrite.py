@@ -401,12 +401,15 @@ def test_a_block_that_moves_another_axis_is_never_split(axes, word, motion):
     ("", "C30.", False),  # where C stood is not known: a move
     ("C30.", "H0.", True), ("C30.", "H10.", False),  # incremental C
 ])
-def test_an_other_axis_word_that_moves_nothing_lets_the_block_split(before, word, split):
+@pytest.mark.parametrize("call", ["", "M98 P100", "M098 P100", "M198 P100", "M99 P5", "G65 P9000"])
+def test_an_other_axis_word_that_moves_nothing_lets_the_block_split(before, word, split, call):
     """A CAM post writes Y0. on every block of a mill-turn program: a word that sends its axis
     where it already is moves nothing, so the block is compensated as any other; a word that
-    moves the axis, or whose start is not known, keeps the block whole or refuses it."""
+    moves the axis, or whose start is not known, keeps the block whole or refuses it. After a
+    call or a return (M98, M198, M99, G65, however written), where the axis stands is not known."""
     profile = replace(DEFAULT, axes="XZCY")
-    text = f"G18 G21 G99\nG00 X20. Z5. {before}\nG01 Z0. F0.1\nG01 X60. Z-40. {word}\nG00 X100.\n"
+    text = f"G18 G21 G99\nG00 X20. Z5. {before}\n{call}\nG00 X20. Z5.\nG01 Z0. F0.1\nG01 X60. Z-40. {word}\nG00 X100.\n"
+    split = split and not (call and word.startswith(("Y", "C")))
     if split:
         out, rewriter = rewrite(text, wave(0.01), profile=profile, tolerance=0.001)
         assert rewriter.emitted > rewriter.replaced and out.count(word) == text.count(word)
@@ -474,3 +477,41 @@ def test_a_correction_that_jumps_inside_a_block_under_g42_is_refused_at_the_bloc
     assert info.value.location.line == 4 and "join of" in info.value.message
     out, _ = rewrite(text, jump, _nose(0.0), tolerance=0.001)  # a control that does not offset: the join is written
     assert len(arcs_and_lines(out)) >= 3
+
+
+@pytest.mark.parametrize("change", ["G55", "G54.1 P2", "G10 L2 P1 Z-300.", "G10 L20 P1 X2.", "G10 P0 W-50.",
+                                    "G52 Z5.", "G50.3 P0"])
+def test_no_move_joins_the_end_in_one_work_frame_to_a_block_in_another(change):
+    """A corrected block ends off its nominal end; the next block starts from that end, and a
+    join brings it back. After a change of the work coordinates (another system, an offset
+    rewritten by G10, a local shift) the old end lies elsewhere in the new frame: a join written
+    there would cut through the part. The block after the change comes back as written."""
+    text = (f"G18 G21 G99 F0.1\nG54.1 P1\nG00 X20. Z5.\nG01 Z0.\nX40. Z-10.\n{change}\nG01 X60. Z-30.\n"
+            "X70.\nG00 X100.\n")
+    shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
+    out, _ = rewrite(text, shift, tolerance=0.001)
+    lines = out.splitlines()
+    after = lines.index(change)
+    assert lines[after + 1] == "G01 X60. Z-30."
+    assert lines[:after] != text.splitlines()[:5]  # the blocks before the change were corrected
+
+
+@pytest.mark.parametrize("system, naming, names", [
+    ("A", "G50 X40. Z-10.", True), ("A", "G50 Z-10.", True), ("A", "G50 X40. W-2.", True), ("A", "G50.3 P0", True),
+    ("B", "G92 X40. Z-10.", True), ("B", "G92.1 X0 Z0", True), ("A", "G50 W-5.", False), ("A", "G50 S2000", False),
+    ("B", "G91 G92 Z-5.", False),
+])
+def test_a_block_that_names_where_the_tool_stands_finds_it_at_the_nominal_end(system, naming, names):
+    """G50 X/Z (G92 in systems B and C) and the presets name the coordinates of wherever the tool
+    was sent: after a corrected move that is the corrected end, and the frame set there would
+    carry the correction, a constant shift of every block after it. The tool goes back to the
+    move's nominal end first. A shift by U/W, or a spindle clamp, names nothing and adds nothing."""
+    mode = "G90 " if system == "B" else ""
+    text = (f"G18 G21 G99 F0.1\n{mode}G00 X20. Z5.\nG01 Z0.\nX40. Z-10.\n{naming}\nG00 X100.\n")
+    shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
+    out, _ = rewrite(text, shift, profile=replace(DEFAULT, gcode_system=system), tolerance=0.001)
+    lines = out.splitlines()
+    before = lines[: lines.index(naming)]
+    assert before[3] != "X40. Z-10."  # the move before it was corrected
+    ends = [m for m in moves("\n".join(before) + "\n", gcode_system=system) if m.kind == LINE]
+    assert ((ends[-1].x1, ends[-1].z1) == pytest.approx((20.0, -10.0))) == names

@@ -65,14 +65,24 @@ def test_each_code_means_the_same_as_its_counterpart_in_system_a(system):
         assert G.SYSTEMS[system][_key(here)] == G.SYSTEMS["A"][_key(in_a)], (here, in_a)
 
 
-@pytest.mark.parametrize("system, code", [("A", "G33"), ("B", "G32"), ("C", "G32"), ("B", "G50"), ("C", "G50.3")])
-def test_a_code_of_another_system_is_unknown(system, code):
-    """The control alarms on it (PS0010): the block passes through with a warning."""
+@pytest.mark.parametrize("system, code", [("A", "G33"), ("B", "G32"), ("C", "G32"), ("B", "G50"), ("C", "G50.3"),
+                                          ("A", "G95"), ("A", "G91"), ("B", "G50.3"), ("A", "G123")])
+def test_a_code_of_another_system_is_unknown_and_the_warning_names_the_systems_that_have_it(system, code):
+    """The control alarms on it (PS0010): the block passes through with a warning. A code the
+    other systems have (G95 or G91 read as system A) most often means the control is set to one
+    of them, and every G90 and G92 of the program then means something else: the warning names
+    those systems, what the code is there, and the profile key that states the system."""
     assert _key(code) not in G.SYSTEMS[system]
     reporter = Reporter()
     moves("G18 G21 G99 F0.2\nG00 X40. Z5.\n" + f"{code} X30. Z-20. F1.5\n", reporter, gcode_system=system)
-    assert any(f"{code} is not a G code this interpreter knows (G-code system {system}" in w.message
-               for w in reporter.warnings)
+    (warning,) = [w.message for w in reporter.warnings if f"{code} is not a G code this interpreter knows" in w.message]
+    assert f"(G-code system {system}; FANUC alarm PS0010 on a control without it)" in warning
+    others = [name for name in "ABC" if name != system and _key(code) in G.SYSTEMS[name]]
+    if others:
+        assert f"in G-code system {' and '.join(others)} it is {code} (" in warning
+        assert "state gcode_system in the machine profile" in warning
+    else:
+        assert "gcode_system" not in warning
 
 
 @pytest.mark.parametrize("system, code", [("A", "G32"), ("B", "G33"), ("C", "G33"), ("A", "G34"), ("B", "G35")])

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from support.interpret import geometry, moves, steps
 from postproc.diagnostics import InterpretationError, Reporter, format_message
@@ -119,9 +120,52 @@ def test_g50_sets_the_coordinates_and_with_s_only_clamps_the_spindle():
     assert geometry(result[-1])[2:4] == ((100.0, 100.0), (100.0, 90.0))
 
 
+@settings(max_examples=60)
+@given(words=st.lists(st.sampled_from(["X", "Z", "U", "W"]), unique=True, min_size=1, max_size=2),
+       values=st.lists(st.integers(-2000, 2000), min_size=2, max_size=2), system=st.sampled_from("ABC"),
+       incremental=st.booleans())
+def test_coordinate_setting_gives_the_tool_the_coordinates_a_move_with_its_words_would_end_at(
+        words, values, system, incremental):
+    """G50 (G92 in systems B and C) leaves the tool where it is and names its coordinates: X and
+    Z as the distance mode reads them, U and W added to the old ones (``G50 W-5.`` at Z-10 makes
+    it Z-15). The next move starts there, exactly where a move with the same words would end."""
+    if {"X", "U"} <= set(words) or {"Z", "W"} <= set(words) or (system != "A" and ({"U", "W"} & set(words))):
+        return  # one word per axis; U and W are X and Z incremental in system A only
+    code = "G50" if system == "A" else "G92"
+    mode = "" if system == "A" else ("G91 " if incremental else "G90 ")
+    named = " ".join(f"{letter}{value / 10:.1f}" for letter, value in zip(words, values))
+    start = "G18 G21 F0.2\nG00 X100. Z10.\n"
+    after = moves(start + f"{mode}{code} {named}\nG01 W0. U0.\n" if system == "A"
+                  else start + f"{mode}{code} {named}\nG91 G01 Z0.\n", gcode_system=system)[-1]
+    moved = moves(start + f"{mode}G00 {named}\n", gcode_system=system)[-1]
+    assert (after.x0, after.z0) == pytest.approx((moved.x1, moved.z1))
+
+
 def test_work_offset_change_loses_the_position():
     result = moves("G54\n" + START + "G55\nG01 W-1.\n")
     assert result[-1].x0 is None
+
+
+@pytest.mark.parametrize("change, lost", [
+    ("G54.1 P2", "xz"),  # another additional system: P names it, the code alone does not
+    ("G10 L2 P1 Z-300.", "z"),  # the offset of G54 rewritten: the tool stays, its coordinates change
+    ("G10 L2 P0 U0.5", "x"),  # the external offset shifts every system; U adds to it
+    ("G10 L20 P1 X1. Z5.", "xz"),  # G54.1 P1's offset
+    ("G10 P0 W-50.", "z"),  # the lathe's workpiece coordinate shift (no L)
+    ("G10 L#1 P1 Z0.", "z"),  # which data a computed L sets is known only when the program runs
+])
+def test_a_change_of_work_coordinates_loses_the_positions_it_moves(change, lost):
+    """Whatever moves the frame the tool's coordinates are counted in, the position on that axis
+    is unknown until an absolute move: a move after it is never joined to the old frame's end."""
+    result = moves("G54.1 P1\n" + START + f"{change}\nG01 U-2. W-1.\n")
+    last = result[-1]
+    assert (last.x0 is None, last.z0 is None) == ("x" in lost, "z" in lost)
+
+
+@pytest.mark.parametrize("data", ["G54.1 P1", "G10 P1 Z0.5", "G10 P10001 X0.1", "G10 L50", "G10 L3 P1"])
+def test_the_same_work_coordinates_or_other_data_keep_the_position(data):
+    result = moves("G54.1 P1\n" + START + f"{data}\nG01 U-2. W-1.\n")
+    assert result[-1].known
 
 
 def test_modal_states_follow_the_blocks():
@@ -130,6 +174,26 @@ def test_modal_states_follow_the_blocks():
     assert (modal.per_rev, modal.comp, modal.tool, modal.offset) == (False, 40, 3, 3)
     feed = [m for s in result for m in s.moves if m.kind == "line"][0]
     assert (feed.comp, feed.feed, feed.per_rev) == (42, 100.0, False)
+
+
+@pytest.mark.parametrize("motion", ["G00 X50. Z-10.", "G01 X50. Z-10.", "G01 X50.", "G02 X40. Z-10. R10.",
+                                    "G03 U20. W-10. I0. K-10.", "G90 X50. Z-10."])
+@pytest.mark.parametrize("word, axis", [("A150.", "A"), ("C1.", "C"), ("H30.", "C")])
+def test_a_word_that_changes_the_path_on_a_lathe_without_its_axis_is_not_read_as_nothing(motion, word, axis):
+    """A (direct drawing's angle), C (a chamfer) and H (incremental C) mean something to the
+    control even where the profile has no such axis: parameter 3405 bit 4 reads them as the
+    angle, chamfer and corner of the drawing. Read as nothing, ``G01 X50. A150.`` would be a
+    move along X alone. The block passes through uninterpreted, with a warning at the word, and
+    the position after it is unknown; on a lathe with the axis it is a move like any other."""
+    program = START + "G01 X30. Z0.\n" + f"{motion} {word}\nG01 W-5.\n"
+    reporter = Reporter()
+    result = moves(program, reporter)
+    assert not result[-2].known and result[-1].x0 is None
+    (warning,) = reporter.warnings
+    assert f"{word[0]} in a motion block" in warning.message
+    assert warning.location.col == len(motion) + 2
+    result = moves(program, axes="XZ" + axis)
+    assert result[-2].known and result[-1].known
 
 
 def test_chamfer_and_corner_radius_are_rows_of_their_own():
@@ -223,20 +287,37 @@ def test_macro_constants_are_evaluated_and_unknowns_pass_through_with_a_warning(
     assert any("cannot be interpreted" in str(w) and ":6:" in str(w) for w in reporter.warnings)
 
 
+@pytest.mark.parametrize("deleted", ["/#1 = 20.", "/2 #1 = 20.", "/IF [#3 EQ 0] THEN #1 = 20.", "/#[#1 - 9.] = 20."])
+def test_a_variable_set_behind_a_block_delete_holds_either_value(deleted):
+    """With the switch on the control skips the block and #1 stays 10; with it off #1 becomes 20.
+    Neither is the program's one value: a move that reads it is not interpreted (as a word block
+    behind '/' is not), never read with the value of the switch's one position."""
+    result = moves(START + f"#1 = 10.\n#3 = 0\n{deleted}\nG01 X#1 Z0.\n")
+    assert (result[-1].x1, result[-1].z1) == (None, 0.0)
+    result = moves(START + f"#1 = 10.\n#3 = 0\n{deleted.lstrip('/2 ')}\nG01 X#1 Z0.\n")
+    assert (result[-1].x1, result[-1].z1) == (10.0, 0.0)  # run without the '/', it sets #1 = 20.
+
+
 def test_jump_targets_forget_what_only_one_path_knew():
     program = START + "#1 = 5.\nN100\nG01 X#1\n#1 = #1 + 1\nIF [#1 LT 10] GOTO 100\n"
     result = moves(program)
     assert result[1].x1 is None and result[1].x0 is None
 
 
-@pytest.mark.parametrize("flow", ["M98 P2000", "G65 P9000 A1.", "M99", "M99 P100"])
+@pytest.mark.parametrize("flow", ["M98 P2000", "M098 P2000", "M198 P2000", "M198 P2000 L3", "G65 P9000 A1.", "M99",
+                                  "M99 P100"])
 def test_after_a_call_or_a_return_the_motion_mode_is_not_assumed(flow):
     """The subprogram may leave G00 where the caller had G01 (and M99 in a main program loops back
-    with whatever mode the last pass left): a block that relies on the mode is not interpreted."""
+    with whatever mode the last pass left): a block that relies on the mode is not interpreted.
+    M198 calls a subprogram kept on an external device or the data server: a call like M98."""
     reporter = Reporter()
-    result = steps("G18 G21 G99\nG00 X20. Z2.\nG01 Z0. F0.1\n" + flow + "\nX30. Z-5.\nG01 X40. Z-10.\n", reporter)
-    after, explicit = result[-2:]
+    result = steps("G18 G21 G99\nG00 X20. Z2.\nG01 Z0. F0.1\n" + flow + "\nX30. Z-5.\nG01 X40. Z-10.\nW-2.\n",
+                   reporter)
+    after, explicit, incremental = result[-3:]
     assert not after.interpreted and explicit.interpreted and explicit.moves[0].kind == "line"
+    assert incremental.moves[0].known  # from the absolute end of the block before it
+    result = steps("G18 G21 G99\nG00 X20. Z2.\nG01 Z0. F0.1\n" + flow + "\nG01 W-5.\n", reporter)
+    assert result[-1].moves[0].z0 is None  # where the subprogram left the tool is not known
     assert any(":5:1: warning: block cannot be interpreted: the motion mode" in str(w) for w in reporter.warnings)
 
 
@@ -346,3 +427,17 @@ def test_every_interpretation_error_has_a_column_and_a_caret(program, where):
     shown = format_message("error", caught.value.message, location).splitlines()
     assert shown[0].startswith(f"t.nc:{line + 1}:{location.col}: error: ")
     assert shown[1] == "    " + program.splitlines()[line - 1] and shown[2] == "    " + " " * (location.col - 1) + "^"
+
+
+def test_each_program_of_a_file_numbers_its_own_contour_blocks():
+    """A main program and its local subprogram each number their blocks from N10: the control
+    looks for a cycle's P and Q in the program that runs it, so neither contour is ambiguous, and
+    a G70 finishes its own program's contour. Two N10s in one program still are ambiguous."""
+    main = ("O0001\nG18 G21 G99\nG00 X52. Z2.\nG71 U2. R1.\nG71 P10 Q20 U0.4 W0.1 F0.25\nN10 G00 X20.\n"
+            "G01 Z0. F0.1\nN20 G01 X52.\nG70 P10 Q20\nM98 P0002\nM30\n")
+    sub = "O0002\nN10 G00 X40.\nG01 Z-22. F0.1\nN20 G01 X52.\nG00 Z-20.\nG70 P10 Q20\nM99\n"
+    result = moves(main + sub)
+    finish = [m for m in result if m.line in (13, 14, 15)]  # the subprogram's contour, run by its G70
+    assert [(m.line, m.x1, m.z1) for m in finish][-3:] == [(13, 20.0, -20.0), (14, 20.0, -22.0), (15, 26.0, -22.0)]
+    with pytest.raises(InterpretationError, match="N10 stands on 2 blocks"):
+        moves(main.replace("M98 P0002\n", "N10 M08\n"))

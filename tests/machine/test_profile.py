@@ -115,3 +115,47 @@ def test_finer_output_names_the_decimals_that_bring_the_default_tolerance_below_
         assert f": set {key} = {finest}, the finest the control's least input increment ({system}" in remedy
     else:
         assert remedy.endswith("allows: give a finer --tolerance, or leave the program uncompensated")
+
+
+@given(st.text(alphabet="XZCYBAUWHVQxzc ", max_size=6))
+def test_axes_are_the_lathes_axis_letters_each_once_with_x_and_z(axes):
+    """Only capitals a FANUC lathe has as axes, each once, X and Z among them: ``XZU`` (U is X
+    written incrementally) would read every U word as another axis's move, ``xzc`` would leave
+    the C words read as chamfers; such a profile is refused, naming the key."""
+    from postproc.diagnostics import OptionError
+
+    valid = set(axes) <= set("XZCYBA") and len(set(axes)) == len(axes) and {"X", "Z"} <= set(axes)
+    if valid:
+        assert from_mapping({"axes": axes}, "p.toml").axes == axes
+        return
+    with pytest.raises(OptionError) as refused:
+        from_mapping({"axes": axes}, "p.toml", f"axes = {axes!r}\n")
+    assert refused.value.message.startswith(f"axes = {axes!r}: ") and refused.value.location.line == 1
+
+
+def test_the_nose_radius_remedy_the_refusal_names_is_a_profile_the_command_line_takes(run, tmp_path):
+    """Under G42 a corrected path that needs a join is refused, naming two remedies: a program for
+    the nose centre, or nose_radius_mm = 0 for a control that does not offset this tool. The
+    second is a profile that loads (0 is a setting of its own, not a missing radius) and lets the
+    program through with its joins; a negative radius is refused."""
+    program = tmp_path / "part.nc"
+    program.write_text("G18 G21 G99 F0.1 S500\nG00 X40. Z5.\nG01 G42 X42. Z1.\nZ0.\nX44. Z-1.\nZ-20.\n"
+                       "G02 X50. Z-23. R3.\nG01 X52.\nG40 G00 X60. Z5.\n")
+    from support import SAMPLES
+
+    compensator = ["--plugin", "parametric", "--option", "extrapolate=true",
+                   "--ballbar", str(SAMPLES / "ballbar" / "v40r-100-ccw.csv"),
+                   "--ballbar", str(SAMPLES / "ballbar" / "v40r-100-cw.csv")]
+    target = tmp_path / "out.nc"
+    refused = run("compensate", str(program), *compensator, "--tolerance", "0.001", "-o", str(target))
+    assert refused.exit_code == 4 and "state nose_radius_mm = 0 in the machine profile" in refused.stderr
+    assert not target.exists()
+    profile = tmp_path / "lathe.toml"
+    profile.write_text("nose_radius_mm = 0\n")
+    written = run("compensate", str(program), *compensator, "--tolerance", "0.001", "--machine", str(profile),
+                  "-o", str(target))
+    assert written.exit_code == 0, written.stderr
+    assert target.read_text() != program.read_text()
+    profile.write_text("nose_radius_mm = -0.4\n")
+    negative = run("check", str(program), "--machine", str(profile))
+    assert negative.exit_code == 3 and "nose_radius_mm must be a number, 0 or more" in negative.stderr

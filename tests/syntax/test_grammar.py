@@ -199,3 +199,57 @@ def _tokens(text):
 
     tree = parser().parse(text)
     return sorted(tree.scan_values(lambda v: isinstance(v, Token)), key=lambda t: t.start_pos)
+
+
+OTHER_CONTROLS = [
+    ("Siemens SINUMERIK", ["N60 G2 X50 Z-25 CR=5", "R1=10", "DEF REAL DIA", "N10 G18 G90 G95 DIAMON",
+                           "LIMS=3000", 'MSG("ROUGHING")', 'CYCLE95("KONTUR",1.5,0.1,0.2,,0.2,0.1,0.1,9)',
+                           "G1 X=IC(5) Z-10", 'T="ROUGH" D1']),
+    ("HEIDENHAIN", ["0 BEGIN PGM TURN MM", "1 TOOL CALL 1 Z S2000", "2 L X+40 Z+2 R0 FMAX", "9 END PGM TURN MM"]),
+    ("LinuxCNC", ["#<dia> = 40", "G1 X[#<dia>] Z-10", "o100 sub", "o100 call [1]", "O<turn> endsub"]),
+    ("Okuma OSP", ["$O1234.MIN%", "NAT01 T010101 M42", "NLAP1 G81", "VC1=20"]),
+]
+
+
+@pytest.mark.parametrize("control, text", [(control, text) for control, lines in OTHER_CONTROLS for text in lines])
+def test_a_line_of_another_controls_program_is_named_as_such(control, text):
+    """A program posted for another control and brought in by mistake fails at its first line
+    a FANUC control refuses; the error says whose line it is, so that nobody mends the program
+    block by block into something that parses and means another thing."""
+    with pytest.raises(ProgramSyntaxError) as info:
+        parse(text)
+    assert f"this line is written for a{'n' if control[0] in 'AEIOU' else ''} {control} control, not a FANUC one" \
+        in info.value.message
+
+
+def test_no_line_of_a_fanuc_program_is_taken_for_another_controls():
+    """The names are given only to lines that fail; none of the lines of the FANUC corpus, nor the
+    FANUC lines the catalogue refuses, looks like another control's."""
+    from postproc.syntax.grammar import _other_control
+    from support.corpus import corpus
+
+    for path in corpus("fanuc") + corpus("fanuc-mill"):
+        for line in path.read_bytes().decode("utf-8", "replace").splitlines():
+            assert _other_control(line) == "", (path.name, line)
+    for text in ["G00 X1.; G01 Z1.", "G01 X1. N10", "#1 = [2 + 3", "G00 X1. (open", "G01 X10. ,C1.", "10 G01 X1.",
+                 "IF [#1 EQ 1] GOTO"]:
+        assert _other_control(text) == "", text
+
+
+@pytest.mark.parametrize("char, remedy", [
+    ("\ufeff", "a byte order mark inside the program"), ("\u00a0", "a no-break space"),
+    ("\u200b", "a zero-width space"), ("\x1a", "a DOS end-of-file mark (Ctrl-Z): end the program with '%' before it"),
+    ("\x0c", "a form feed"), ("\u2212", "a minus sign from a word processor: type '-'"),
+    ("\u2013", "a dash from a word processor"), ("\x00", "is this a text program?"), ("\u0661", "is this a text program?"),
+])
+@pytest.mark.parametrize("where", ["{}G01 X10.", "G01 X10.{}", "G01 {}X10. Z-5."])
+def test_a_stray_character_a_text_program_picks_up_is_named_with_its_remedy(char, remedy, where):
+    """A joined file's byte order mark, a space or a minus copied from a document, a DOS Ctrl-Z:
+    the error names the character, where it comes from and what to do, wherever it stands; a
+    character of no known origin asks whether the file is a text program at all."""
+    text = where.format(char)
+    with pytest.raises(ProgramSyntaxError) as info:
+        parse(text)
+    assert info.value.message == f"a character the control does not read (U+{ord(char):04X}): " + \
+        info.value.message.split("): ", 1)[1]
+    assert remedy in info.value.message and info.value.location.col == text.index(char) + 1
