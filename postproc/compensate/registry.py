@@ -27,6 +27,7 @@ import functools
 import os
 import re
 import sys
+import dataclasses
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -34,7 +35,7 @@ import pluggy
 
 from . import hookspecs
 from .compensator import Compensator
-from ..diagnostics import InternalError, OptionError, PluginError
+from ..diagnostics import OptionError, PluginError
 
 if TYPE_CHECKING:
     from ..measure.readers.registry import MeasurementReader
@@ -96,15 +97,26 @@ def _found(pm: pluggy.PluginManager) -> dict[str, Installed]:
     versions = {id(plugin): (dist.version, dist.project_name) for plugin, dist in pm.list_plugin_distinfo()}
     versions.update(_loaded_own)
     found: dict[str, Installed] = {}
+    provider: dict[str, str] = {}
     for impl in pm.hook.postproc_compensators.get_hookimpls():
         version, distribution = versions.get(id(impl.plugin), ("?", "?"))
-        for cls in impl.function() or ():
-            if not (isinstance(cls, type) and issubclass(cls, Compensator) and cls.name):
+        for cls in _offered(impl, "postproc_compensators"):
+            if not (isinstance(cls, type) and issubclass(cls, Compensator) and isinstance(cls.name, str) and cls.name):
                 raise PluginError(impl.plugin_name, f"postproc_compensators returned {cls!r}, not a named Compensator class")
             if cls.name in found:
-                raise InternalError(f"two plugins provide a compensator named {cls.name!r}")
+                raise PluginError(impl.plugin_name, f"two plugins provide a compensator named {cls.name!r} (this one "
+                                                    f"and {provider[cls.name]!r}); uninstall or rename one of them")
             found[cls.name] = Installed(cls, version, distribution)
+            provider[cls.name] = impl.plugin_name
     return found
+
+
+def _offered(impl, hook: str) -> list:
+    """What one plugin's hook implementation returns; a hook that fails is its plugin's fault."""
+    try:
+        return list(impl.function() or ())
+    except Exception as exc:
+        raise PluginError(impl.plugin_name, f"{hook} failed: {exc.__class__.__name__}: {exc}") from None
 
 
 def select(names: list[str]) -> list[Installed]:
@@ -271,8 +283,8 @@ def readers() -> list[MeasurementReader]:
 
     found: list[MeasurementReader] = []
     for impl in reversed(manager().hook.postproc_measurement_readers.get_hookimpls()):
-        for reader in impl.function() or ():
+        for reader in _offered(impl, "postproc_measurement_readers"):
             if not isinstance(reader, MeasurementReader):
                 raise PluginError(impl.plugin_name, f"postproc_measurement_readers returned {reader!r}")
-            found.append(reader)
+            found.append(dataclasses.replace(reader, plugin=impl.plugin_name))
     return found

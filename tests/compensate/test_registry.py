@@ -304,6 +304,129 @@ def test_a_plugin_that_hangs_is_stopped_and_named(run, tmp_path):
         manager.unregister(plugin)
 
 
+# ---------------------------------------------------------------------- a shop reader that misbehaves
+
+def _trace_made(path, context, change):
+    """The built-in reader's trace of the sample, with ``change`` applied to it."""
+    import dataclasses
+
+    from postproc.measure.readers.ballbar import read_ballbar
+
+    trace = read_ballbar(CCW, context.reporter)
+    return dataclasses.replace(trace, **change(trace))
+
+
+def _probe_made(path, context, change):
+    import dataclasses
+
+    from postproc.measure.readers.probe import read_probe
+
+    points = read_probe(str(SAMPLES / "probe" / "hemishell-pass1.csv"))
+    return dataclasses.replace(points, **change(points))
+
+
+def _raises(*args):
+    raise KeyError("Deviation")
+
+
+#: (kind, accepts, read, words of the message): every way a reader can fail but refusing the file
+_FAULTY_READERS = {
+    "accepts raises": ("ballbar", _raises, None, "reader 'faulty': accepts failed: KeyError: 'Deviation'"),
+    "read raises": ("ballbar", None, _raises, "reader 'faulty': read failed: KeyError: 'Deviation'"),
+    "nothing read": ("ballbar", None, lambda path, context: None, "read returned NoneType, not a BallbarTrace"),
+    "another kind": ("ballbar", None, lambda p, c: _probe_made(p, c, lambda t: {}), "returned ProbeFile, not a BallbarTrace"),
+    "a NaN deviation": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {
+        "deviations": np.where(np.arange(len(t.angles)) == 3, np.nan, t.deviations)}), "deviations with values that are not finite"),
+    "fewer deviations": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {"deviations": t.deviations[:-5]}),
+                         "deviations of shape (715,)"),
+    "a table of deviations": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {
+        "deviations": np.column_stack([t.deviations, t.deviations])}), "deviations of shape (720, 2)"),
+    "angles in degrees out of order": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {
+        "angles": t.angles[::-1].copy(), "deviations": t.deviations[::-1].copy()}), "angles that are not increasing"),
+    "angles in radians beyond 360": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {"angles": t.angles + 360.0}),
+                                     "angles that are not increasing within [0, 360)"),
+    "a radius of nan": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {"radius": float("nan")}),
+                        "radius = nan, not a positive number"),
+    "a direction of its own": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {"direction": "G03"}),
+                               "direction 'G03', not 'ccw' or 'cw'"),
+    "rows of another trace": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {"rows": t.rows[:10]}),
+                              "read returned 10 rows for 720 samples"),
+    "probe: a centre of three coordinates": ("probe", None, lambda p, c: _probe_made(p, c, lambda t: {
+        "centres": np.column_stack([t.centres, t.centres[:, :1]])}), "centres of shape"),
+    "probe: an infinite approach": ("probe", None, lambda p, c: _probe_made(p, c, lambda t: {
+        "approach": np.where(np.arange(len(t.lines))[:, None] == 0, np.inf, t.approach)}), "approach with values that are not finite"),
+    "probe: no stylus": ("probe", None, lambda p, c: _probe_made(p, c, lambda t: {"stylus_radius": None}),
+                         "stylus_radius = None, not a positive number"),
+    "probe: lines of fewer touches": ("probe", None, lambda p, c: _probe_made(p, c, lambda t: {"lines": t.lines[:-1]}),
+                                      "lines for"),
+}
+
+
+@pytest.mark.parametrize("fault", sorted(_FAULTY_READERS))
+def test_a_shop_reader_that_fails_or_makes_nonsense_is_named_with_the_file(run, registered, tmp_path, fault):
+    """Whatever a shop's reader does wrong (raises, returns nothing, another type, arrays of other
+    lengths, values that are not finite, unsorted angles), the run stops naming its plugin, the
+    reader and the file (exit 5): not a compensator's fault, not an internal error, and nothing
+    written."""
+    from postproc.measure.readers.registry import MeasurementReader
+
+    kind, accepts, read, words = _FAULTY_READERS[fault]
+
+    class Plugin:
+        @hookspecs.hookimpl
+        def postproc_measurement_readers(self):
+            return [MeasurementReader(kind, "faulty", accepts or (lambda path: path.endswith(".shop")),
+                                      read or (lambda path, context: None))]
+
+    registered(Plugin())
+    export = tmp_path / "export.shop"
+    export.write_text("whatever the instrument writes\n")
+    target = tmp_path / "out.nc"
+    measurements = (["--plugin", "parametric", "--ballbar", str(export), "--ballbar", CW] if kind == "ballbar" else
+                    ["--plugin", "omp-feedback", "--probe", str(export)])
+    result = run("compensate", HEMISHELL, *measurements, "-o", str(target))
+    assert result.exit_code == 5, result.stderr
+    assert result.stderr.startswith(f"{export}: error: plugin 'reader-order-0-0': "), result.stderr
+    assert words in result.stderr and "internal error" not in result.stderr
+    assert not target.exists()
+
+
+class _HookFails:
+    @hookspecs.hookimpl
+    def postproc_compensators(self):
+        raise ImportError("no module named 'shoplib'")
+
+
+class _Duplicate:
+    @hookspecs.hookimpl
+    def postproc_compensators(self):
+        class Clash(_Raises):
+            name = "ballbar-inverse"
+
+        return [Clash]
+
+
+class _NotAName:
+    @hookspecs.hookimpl
+    def postproc_compensators(self):
+        class Numbered(_Raises):
+            name = 42
+
+        return [Numbered]
+
+
+@pytest.mark.parametrize("plugin, words", [(_HookFails(), "postproc_compensators failed: ImportError: no module named 'shoplib'"),
+                                           (_Duplicate(), "two plugins provide a compensator named 'ballbar-inverse' "
+                                                          "(this one and 'ballbar-inverse')"),
+                                           (_NotAName(), "not a named Compensator class")])
+def test_a_plugin_whose_compensators_cannot_be_listed_is_named(run, registered, plugin, words):
+    registered(plugin)
+    result = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", CCW,
+                 "--option", "radius-mapping=relative")
+    assert result.exit_code == 5 and result.stdout == ""
+    assert result.stderr.startswith("postproc: error: plugin 'reader-order-0-0': ") and words in result.stderr
+
+
 # ---------------------------------------------------------------------- loading only what a run selects
 
 
