@@ -714,12 +714,18 @@ def profile():
 @_reported
 def profile_show(machine):
     """Print the machine profile in force, as TOML, after two comment lines: the project file
-    used and where the profile came from."""
+    used and where the profile came from. The whole profile is checked first (its
+    ``[simulation]`` table too, which is not printed): a bad one prints nothing."""
     from click.core import ParameterSource
 
     from ..machine.profile import to_toml
 
     context = click.get_current_context()
+    shown = _profile(machine)  # checked whole before anything is printed
+    if shown.extra.get("simulation") is not None:
+        from ..simulator.config import from_table
+
+        from_table(shown.extra["simulation"], shown, machine)
     project = context.find_root().meta.get(PROJECT)
     if project is not None and project.path:
         click.echo(f"# project file: {project.path}")
@@ -728,7 +734,7 @@ def profile_show(machine):
     source = context.get_parameter_source("machine")
     origin = ("the project file" if source is ParameterSource.DEFAULT_MAP else "--machine") if machine else None
     click.echo(f"# machine profile: {machine} (from {origin})" if machine else "# machine profile: the embedded default")
-    click.echo(to_toml(_profile(machine)), nl=False)
+    click.echo(to_toml(shown), nl=False)
 
 
 @profile.command("init", epilog=examples(

@@ -132,3 +132,37 @@ def test_a_program_changed_while_it_is_compensated_does_not_matter(tmp_path):
         path.write_text("G00 X1.\n")
         assert source.read_bytes() == HEMISHELL.read_bytes()
         assert "".join(source.lines()).encode() == HEMISHELL.read_bytes()
+
+
+@pytest.mark.parametrize("command, option, source", [
+    (["profile", "show"], "--machine", MACHINE),
+    (["budget"], None, SAMPLES / "budget" / "v40r-budget.toml"),
+])
+def test_a_toml_file_saved_with_a_byte_order_mark_reads_as_without_it(run, tmp_path, command, option, source):
+    """Windows editors save UTF-8 with a byte order mark, which tomllib calls 'Invalid statement'
+    at line 1: every TOML file postproc reads (profile, project file, budget) goes through one
+    reader, which drops it."""
+    marked = tmp_path / source.name
+    marked.write_bytes(b"\xef\xbb\xbf" + source.read_bytes())
+    plain = run(*command, *([option] if option else []), str(source))
+    result = run(*command, *([option] if option else []), str(marked))
+    assert (result.exit_code, result.stderr) == (0, ""), result.stderr
+    assert result.stdout == plain.stdout.replace(str(source), str(marked))
+    document, text = inputs.read_toml(str(marked), 1 << 20, MeasurementError, "a test file")
+    assert not text.startswith("\ufeff") and document == inputs.read_toml(str(source), 1 << 20, MeasurementError, "")[0]
+
+
+def test_a_project_file_saved_with_a_byte_order_mark_is_read(run, tmp_path, monkeypatch):
+    (tmp_path / "postproc.toml").write_bytes(b"\xef\xbb\xbftolerance = 0.002\n")
+    monkeypatch.chdir(tmp_path)
+    result = run("compensate", str(HEMISHELL))
+    assert result.exit_code == 0 and "project file: --tolerance from it" in result.stderr, result.stderr
+
+
+@pytest.mark.parametrize("name, value, other", [("max_correction", "0.05", "0.08"), ("macro_values", '"keep"', '"refuse"')])
+def test_a_project_key_in_both_its_spellings_is_refused(run, tmp_path, monkeypatch, name, value, other):
+    (tmp_path / "postproc.toml").write_text(f"{name.replace('_', '-')} = {value}\n{name} = {other}\n")
+    monkeypatch.chdir(tmp_path)
+    result = run("check", str(HEMISHELL))
+    assert (result.exit_code, result.stdout) == (3, "")
+    assert f"postproc.toml:2:1: error: {name} is given twice" in result.stderr, result.stderr
