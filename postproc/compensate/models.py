@@ -113,7 +113,8 @@ def read(path: str) -> dict[str, Any]:
     where = Location(path)
     raw = inputs.read(path, MAX_BYTES, ModelError, "a model").data
     try:
-        data = json.loads(raw.decode("utf-8"), parse_constant=_not_a_number)
+        # utf-8-sig: a byte order mark, as an editor on Windows saves a model looked at, is no content
+        data = json.loads(raw.decode("utf-8-sig"), parse_constant=_not_a_number)
     except UnicodeDecodeError:
         raise ModelError("not a postproc model (not UTF-8 text)", where) from None
     except json.JSONDecodeError as exc:

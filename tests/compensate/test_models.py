@@ -57,6 +57,19 @@ def test_a_changed_or_foreign_model_is_refused(run, tmp_path):
     assert "not a postproc model (not JSON" in run("compensate", HEMISHELL, "--model", str(model)).stderr
 
 
+@pytest.mark.parametrize("ending", ["\n", "\r\n"])
+def test_a_model_saved_again_by_an_editor_with_a_byte_order_mark_reads_as_it_was(run, tmp_path, ending):
+    """Opened and saved in a Windows editor, a model gains a BOM (and perhaps CR LF): its content,
+    which the SHA-256 covers, is the same, and so is the compensation."""
+    model = tmp_path / "model.json"
+    run(*FIT, "-o", str(model))
+    plain = run("compensate", HEMISHELL, "--model", str(model))
+    model.write_bytes(b"\xef\xbb\xbf" + model.read_bytes().replace(b"\n", ending.encode()))
+    again = run("compensate", HEMISHELL, "--model", str(model))
+    assert again.exit_code == plain.exit_code == 0, again.stderr
+    assert again.stdout == plain.stdout
+
+
 def test_an_old_model_or_one_for_another_machine_warns(run, tmp_path):
     import datetime as dt
     import hashlib
