@@ -757,16 +757,17 @@ def profile_init(file, name):
     if file == "-":
         click.echo(text, nl=False)
         return
-    try:
-        fd = os.open(file, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
-    except FileExistsError:
-        raise UsageError(f"{file} exists: profile init never overwrites a file; give a new name") from None
-    except OSError as exc:
-        from ..files.output import OutputError, explain
+    from ..files.output import Spool
 
-        raise OutputError(f"cannot create the profile: {explain(exc)}", Location(file)) from None
-    with os.fdopen(fd, "w", encoding="utf-8") as out:
-        out.write(text)
+    exists = UsageError(f"{file} exists: profile init never overwrites a file; give a new name")
+    if os.path.lexists(file):
+        raise exists
+    with Spool(file) as spool:  # complete or not at all: a full disk leaves no empty profile behind
+        spool.write(text.encode("utf-8"))
+        try:
+            spool.commit(new=True)
+        except FileExistsError:
+            raise exists from None
     progress.inform(f"{file}: starter machine profile written; edit it, then check it with "
                     f"'postproc profile show --machine {file}'")
 
