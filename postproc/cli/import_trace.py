@@ -26,7 +26,7 @@ import click
 import numpy as np
 
 from ..diagnostics import Location, MeasurementError, Reporter, UsageError
-from ..measure.readers.ballbar import MAGIC, make_trace, raw_samples, repeated_angle
+from ..measure.readers.ballbar import MAGIC, REPEATED, make_trace, raw_samples, repeated_angle
 from ..measure.readers.csvfile import read_text
 from ..files.output import STDOUT, write_atomically
 from .common import FINITE, examples, guard
@@ -121,7 +121,8 @@ def command(file, radius, direction, center_x, center_z, feed, start_angle, capt
         again = repeated_angle(np.mod(angles, 360.0))
         if again is not None:
             line, _, cols = table.rows[again[0]]
-            raise MeasurementError(f"angle {angles[again[0]]:g} deg again (first on line {table.rows[again[1]][0]})",
+            raise MeasurementError(f"angle {angles[again[0]]:g} deg again (first on line {table.rows[again[1]][0]}): "
+                                   f"{REPEATED}",
                                    Location(file, line, cols[picked[0]], table.lines[line - 1]))
         samples = deviations
         rows = ["angle_deg,deviation_mm"] + [f"{a:.10g},{d:.10g}" for a, d in zip(np.mod(angles, 360.0), deviations)]

@@ -108,7 +108,8 @@ def test_columns_by_number_or_by_header_name_and_the_exports_angle_convention(ru
      "{f}: error: the trace covers 50 deg from 0 to 50 deg: a trace needs at least 90 deg of arc (a lathe's test "
      "in XZ runs about 220 deg)"),
     ("angle,dev\n0,0.001\n360,0.001\n" + "".join(f"{a},0.001\n" for a in range(2, 200, 2)), [],
-     "{f}:3:1: error: angle 360 deg again (first on line 2)"),
+     "{f}:3:1: error: angle 360 deg again (first on line 2): a second lap or run in one file? give each run of the "
+     "test as a file of its own"),
     ("just words\nand more words\n", [], "{f}: error: no rows of numbers in the file (numbers written 1,25 need "
      "--decimal-comma; cells separated otherwise than by tab, semicolon, comma or spaces need --delimiter)"),
     ("\x00\x01binary", [], "{f}: error: this is a binary file, not a measurement table"),
