@@ -137,8 +137,10 @@ class Pipeline:
         failure on data (a missing key, a value of the wrong type), in loading it or in using it
         later, is the file's: a ModelError (exit 3), not the compensator's (exit 5)."""
         try:
-            with _time_limit(compensator.context.profile.plugin_time_limit_s):
+            with _time_limit(compensator.context.profile.plugin_time_limit_s), _stdout_to_stderr():
                 return function(*args)
+        except SystemExit as exc:  # a plugin's sys.exit() would end the run "successfully", with nothing written
+            raise PluginError(compensator.name, f"{what} called sys.exit({exc.code!r})") from None
         except PostprocError as exc:
             raise exc.at(Location(model)) if model is not None else exc
         except (KeyError, IndexError, TypeError, ValueError, AttributeError, OverflowError) as exc:
@@ -243,12 +245,19 @@ class Pipeline:
         inch = anchor.modal.inch if anchor is not None else False
         blocks: list[tuple[str, str]] = []
         for compensator in self.compensators:
-            for text in self._guarded(compensator, "prologue", compensator.prologue, inch, model=self.request.model):
+            given = self._guarded(compensator, "prologue", compensator.prologue, inch, model=self.request.model)
+            if not isinstance(given, (list, tuple)) or not all(isinstance(text, str) for text in given):
+                raise PluginError(compensator.name, f"prologue returned {given!r}, not a list of blocks (strings)")
+            for text in given:
                 try:
-                    for _ in Interpreter(self.profile, Reporter(), "<prologue>").run(read_blocks([text + "\n"], "<prologue>")):
-                        pass
+                    steps = list(Interpreter(self.profile, Reporter(), "<prologue>").run(
+                        read_blocks([f"G{20 if inch else 21}\n", text + "\n"], "<prologue>")))
                 except PostprocError as exc:
                     raise PluginError(compensator.name, f"its opening block {text!r} does not read: {exc.message}") from None
+                refused = _not_an_opening_block(steps)
+                if refused:
+                    raise PluginError(compensator.name, f"its opening block {text!r} {refused}; an opening block sets data "
+                                                        "(G10) or is a comment, and changes nothing the program relies on")
                 blocks.append((compensator.name, text))
         if blocks and anchor is None:
             where = Location(source.name, stop.block.line, 1, stop.block.text) if stop is not None else Location(source.name)
@@ -375,6 +384,43 @@ class _time_limit:
         raise _Overtime()
 
 
+def _not_an_opening_block(steps: list[Step]) -> str:
+    """Why a compensator's opening block (interpreted after a units block) may not open a
+    program, or nothing. It goes in before the program's first tool call or move, so anything
+    but setting data would change how the program runs: a move, a modal change (G91, units,
+    spindle), a new coordinate system (G50, G54, G92), a tool call, a macro assignment the
+    program may read, parameter input (G10 L50, whose following blocks are read as parameters)."""
+    units, step = steps[0], steps[-1]
+    block = step.block
+    codes = [(address.upper(), str(value)) for address, value in block.codes]
+    if step.moves:
+        return "moves the machine"
+    if block.statement is not None:
+        return "is a macro statement"
+    if step.modal != units.modal or not step.interpreted:
+        return "changes the modal state"
+    g_codes = [value for address, value in codes if address == "G"]
+    if codes and (g_codes != ["10"] or any(address in "MSTFN" for address, _ in codes)
+                  or any(address == "L" and value.rstrip(".").lstrip("0") == "50" for address, value in codes)):
+        return "is not a G10 data setting"
+    return ""
+
+
+class _stdout_to_stderr:
+    """While a plugin runs, what it prints goes to stderr: stdout carries the program alone."""
+
+    def __enter__(self):
+        import sys
+
+        self.saved, sys.stdout = sys.stdout, sys.stderr
+        return self
+
+    def __exit__(self, *exc) -> None:
+        import sys
+
+        sys.stdout = self.saved
+
+
 def _checked(name: str, shifts, pieces: list[Piece]) -> list[np.ndarray | None]:
     """A compensator's corrections, one (n, 2) array of finite values (or None) per piece."""
     if not isinstance(shifts, (list, tuple)) or len(shifts) != len(pieces):
@@ -383,7 +429,10 @@ def _checked(name: str, shifts, pieces: list[Piece]) -> list[np.ndarray | None]:
     checked = []
     for shift, piece in zip(shifts, pieces):
         if shift is not None:
-            shift = np.asarray(shift, dtype=float)
+            try:
+                shift = np.asarray(shift, dtype=float)
+            except (TypeError, ValueError) as exc:
+                raise PluginError(name, f"returned a correction that is not numbers ({exc})") from None
             if shift.shape != (len(piece.t), 2):
                 raise PluginError(name, f"returned a correction of shape {shift.shape} for {len(piece.t)} points")
         checked.append(shift)

@@ -103,12 +103,31 @@ def _found(pm: pluggy.PluginManager) -> dict[str, Installed]:
         for cls in _offered(impl, "postproc_compensators"):
             if not (isinstance(cls, type) and issubclass(cls, Compensator) and isinstance(cls.name, str) and cls.name):
                 raise PluginError(impl.plugin_name, f"postproc_compensators returned {cls!r}, not a named Compensator class")
+            _check_names(impl.plugin_name, cls)
             if cls.name in found:
                 raise PluginError(impl.plugin_name, f"two plugins provide a compensator named {cls.name!r} (this one "
                                                     f"and {provider[cls.name]!r}); uninstall or rename one of them")
             found[cls.name] = Installed(cls, version, distribution)
             provider[cls.name] = impl.plugin_name
     return found
+
+
+#: a compensator's name and its options' keys: what --plugin NAME and --option NAME.KEY=VALUE can spell
+_NAME = re.compile(r"[a-z0-9][a-z0-9_-]*")
+
+
+def _check_names(plugin: str, cls: type[Compensator]) -> None:
+    """Refuse a compensator the command line could not name, or whose options it could not tell apart."""
+    if not _NAME.fullmatch(cls.name):
+        raise PluginError(plugin, f"a compensator named {cls.name!r}: a name is lower-case letters, digits, '-' and "
+                                  "'_' (it is spelt on the command line, and in --option NAME.KEY=VALUE)")
+    keys = [getattr(option, "key", None) for option in cls.options]
+    for key in keys:
+        if not (isinstance(key, str) and _NAME.fullmatch(key)):
+            raise PluginError(plugin, f"compensator {cls.name!r} declares an option {key!r}: a key is lower-case "
+                                      "letters, digits, '-' and '_'")
+        if keys.count(key) > 1:
+            raise PluginError(plugin, f"compensator {cls.name!r} declares the option {key!r} twice")
 
 
 def _offered(impl, hook: str) -> list:

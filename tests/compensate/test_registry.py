@@ -427,6 +427,99 @@ def test_a_plugin_whose_compensators_cannot_be_listed_is_named(run, registered, 
     assert result.stderr.startswith("postproc: error: plugin 'reader-order-0-0': ") and words in result.stderr
 
 
+def _compensator(name: str = "test-shop", **members):
+    """A plugin object providing one compensator built from ``members`` (fit does nothing)."""
+    cls = type("Shop", (_Raises,), {"name": name, "correct": lambda self, piece: None, **members})
+
+    class Plugin:
+        @hookspecs.hookimpl
+        def postproc_compensators(self):
+            return [cls]
+
+    return Plugin()
+
+
+def _exits(self, measurements):
+    raise SystemExit(0)
+
+
+@pytest.mark.parametrize("members, words", [
+    ({"fit": _exits}, "fit called sys.exit(0)"),
+    ({"correct": lambda self, piece: np.array([["a", "b"]] * len(piece.t))}, "returned a correction that is not numbers"),
+    ({"prologue": lambda self, inch: "G10 P1 U0.01 W0."}, "prologue returned 'G10 P1 U0.01 W0.', not a list of blocks"),
+    ({"prologue": lambda self, inch: [None]}, "prologue returned [None], not a list of blocks"),
+])
+def test_a_compensator_that_exits_or_returns_what_no_compensator_returns_is_named(run, registered, tmp_path, members,
+                                                                                   words):
+    """sys.exit(0) in a plugin ended the run with exit 0 and nothing written; an array of text was
+    an internal error; a string for the list of opening blocks was read letter by letter."""
+    registered(_compensator(**members))
+    target = tmp_path / "out.nc"
+    result = run("compensate", HEMISHELL, "--plugin", "test-shop", "-o", str(target))
+    assert result.exit_code == 5 and not target.exists()
+    assert f"plugin 'test-shop': {words}" in result.stderr, result.stderr
+
+
+def test_what_a_compensator_prints_goes_to_stderr_never_into_the_program(run, registered):
+    def fit(self, measurements):
+        print("G00 X0. Z0. (fitted!)")
+
+    registered(_compensator(fit=fit))
+    result = run("compensate", HEMISHELL, "--plugin", "test-shop")
+    assert result.exit_code == 0, result.stderr
+    assert "fitted!" not in result.stdout and result.stdout.startswith("%\n")
+    assert "G00 X0. Z0. (fitted!)" in result.stderr
+
+
+@pytest.mark.parametrize("block, why", [
+    ("G28 U0.", "moves the machine"), ("G00 X50. Z5.", "moves the machine"), ("G91", "changes the modal state"),
+    ("G20", "changes the modal state"), ("M03 S500", "changes the modal state"), ("T0202", "changes the modal state"),
+    ("G50 X100. Z50.", "is not a G10 data setting"), ("G54", "is not a G10 data setting"),
+    ("G04 X1.", "is not a G10 data setting"), ("G10 L50", "is not a G10 data setting"),
+    ("#500 = 1.", "is a macro statement"), ("G11", "is not a G10 data setting"),
+])
+def test_an_opening_block_that_would_change_how_the_program_runs_is_refused(run, registered, tmp_path, block, why):
+    """A compensator's opening blocks go in before the program's first move: anything but data
+    (a move, G91, other units, a new coordinate system, a tool call, parameter input, a macro
+    variable the program may read) would change the whole program behind the user's back."""
+    registered(_compensator(prologue=lambda self, inch: [block]))
+    target = tmp_path / "out.nc"
+    result = run("compensate", HEMISHELL, "--plugin", "test-shop", "-o", str(target))
+    assert result.exit_code == 5 and not target.exists()
+    assert f"plugin 'test-shop': its opening block {block!r} {why}" in result.stderr, result.stderr
+
+
+@pytest.mark.parametrize("blocks", [["G10 P1 U0.01 W-0.004"], ["(WEAR SET BY SHOP)", "G10 P2 U0. W0.002"]])
+def test_data_settings_and_comments_open_the_program(run, registered, blocks):
+    registered(_compensator(prologue=lambda self, inch: blocks))
+    result = run("compensate", HEMISHELL, "--plugin", "test-shop")
+    assert result.exit_code == 0, result.stderr
+    assert all(f"\n{block}\n" in result.stdout for block in blocks)
+
+
+def _gain(key="gain"):
+    from postproc.compensator import Option
+
+    return Option(key, float, 1.0)
+
+
+@pytest.mark.parametrize("name, options, words", [
+    ("shop bad", lambda: (), "a compensator named 'shop bad': a name is lower-case letters"),
+    ("shop.bad", lambda: (), "a compensator named 'shop.bad'"),
+    ("Shop", lambda: (), "a compensator named 'Shop'"),
+    ("test-shop", lambda: (object(),), "declares an option None"),
+    ("test-shop", lambda: (_gain("gain=1"),), "declares an option 'gain=1'"),
+    ("test-shop", lambda: (_gain(), _gain()), "declares the option 'gain' twice"),
+])
+def test_a_compensator_the_command_line_cannot_name_is_refused(run, registered, name, options, words):
+    """A name with a space or a dot, or two options of one key, cannot be spelt in --plugin NAME and
+    --option NAME.KEY=VALUE: refused when the compensators are listed, naming the plugin."""
+    registered(_compensator(name, options=options()))
+    result = run("compensate", HEMISHELL, "--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW)
+    assert result.exit_code == 5 and result.stdout == ""
+    assert "plugin 'reader-order-0-0': " in result.stderr and words in result.stderr, result.stderr
+
+
 # ---------------------------------------------------------------------- loading only what a run selects
 
 
