@@ -19,8 +19,10 @@ from __future__ import annotations
 import os
 import re
 import signal
+import sys
 import tempfile
 import threading
+from contextlib import redirect_stdout
 from typing import Any
 
 import numpy as np
@@ -137,7 +139,8 @@ class Pipeline:
         failure on data (a missing key, a value of the wrong type), in loading it or in using it
         later, is the file's: a ModelError (exit 3), not the compensator's (exit 5)."""
         try:
-            with _time_limit(compensator.context.profile.plugin_time_limit_s), _stdout_to_stderr():
+            # what a plugin prints goes to stderr: stdout carries the program alone
+            with _time_limit(compensator.context.profile.plugin_time_limit_s), redirect_stdout(sys.stderr):
                 return function(*args)
         except SystemExit as exc:  # a plugin's sys.exit() would end the run "successfully", with nothing written
             raise PluginError(compensator.name, f"{what} called sys.exit({exc.code!r})") from None
@@ -404,21 +407,6 @@ def _not_an_opening_block(steps: list[Step]) -> str:
                   or any(address == "L" and value.rstrip(".").lstrip("0") == "50" for address, value in codes)):
         return "is not a G10 data setting"
     return ""
-
-
-class _stdout_to_stderr:
-    """While a plugin runs, what it prints goes to stderr: stdout carries the program alone."""
-
-    def __enter__(self):
-        import sys
-
-        self.saved, sys.stdout = sys.stdout, sys.stderr
-        return self
-
-    def __exit__(self, *exc) -> None:
-        import sys
-
-        sys.stdout = self.saved
 
 
 def _checked(name: str, shifts, pieces: list[Piece]) -> list[np.ndarray | None]:

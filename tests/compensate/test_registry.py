@@ -362,6 +362,27 @@ _FAULTY_READERS = {
 }
 
 
+def test_what_a_shop_reader_prints_goes_to_stderr_never_into_the_output(run, registered, tmp_path):
+    from postproc.measure.readers.ballbar import read_ballbar
+    from postproc.measure.readers.registry import MeasurementReader
+
+    def read(path, context):
+        print("G00 X0. Z0. (read!)")
+        return read_ballbar(CCW, context.reporter)
+
+    class Plugin:
+        @hookspecs.hookimpl
+        def postproc_measurement_readers(self):
+            return [MeasurementReader("ballbar", "chatty", lambda path: path.endswith(".shop"), read)]
+
+    registered(Plugin())
+    export = tmp_path / "export.shop"
+    export.write_text("whatever\n")
+    result = run("compensate", HEMISHELL, "--plugin", "parametric", "--ballbar", str(export), "--ballbar", CW)
+    assert result.exit_code == 0, result.stderr
+    assert "read!" not in result.stdout and "G00 X0. Z0. (read!)" in result.stderr
+
+
 @pytest.mark.parametrize("fault", sorted(_FAULTY_READERS))
 def test_a_shop_reader_that_fails_or_makes_nonsense_is_named_with_the_file(run, registered, tmp_path, fault):
     """Whatever a shop's reader does wrong (raises, returns nothing, another type, arrays of other

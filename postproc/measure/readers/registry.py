@@ -14,6 +14,8 @@ not the file's nor a compensator's, and nothing it made is used.
 
 from __future__ import annotations
 
+import sys
+from contextlib import redirect_stdout
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -77,7 +79,8 @@ def _fault(reader: MeasurementReader, path: str, message: str) -> PluginError:
 def _called(reader: MeasurementReader, what: str, path: str, function, *args):
     """``function(*args)``; a failure other than a refusal of the file is the reader's fault."""
     try:
-        return function(*args)
+        with redirect_stdout(sys.stderr):  # what a reader prints goes to stderr: stdout carries the output alone
+            return function(*args)
     except PostprocError:
         raise
     except Exception as exc:
