@@ -43,7 +43,7 @@ class Location:
     source: str | None = None  #: the text of that line, for the caret display
 
     def prefix(self) -> str:
-        parts = [self.file]
+        parts = [STDIN_NAME if self.file == "-" else self.file]  # a file given as -, standard input
         if self.line is not None:
             parts.append(str(self.line))
             if self.col is not None:

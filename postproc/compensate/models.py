@@ -110,7 +110,7 @@ def read(path: str) -> dict[str, Any]:
     """A model file, checked as strictly as the command line checks options: JSON of at most
     MAX_BYTES, its format, version and hash, every key of the right type, every number finite
     and plausible, every radius positive, the measurement time with its zone."""
-    where = Location(path)
+    where = Location(inputs.named(path))
     raw = inputs.read(path, MAX_BYTES, ModelError, "a model").data
     try:
         # utf-8-sig: a byte order mark, as an editor on Windows saves a model looked at, is no content

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import Iterator
 
-from ..diagnostics import Location, PostprocError
+from ..diagnostics import STDIN_NAME, Location, PostprocError
 
 CHUNK = 1 << 20
 
@@ -107,6 +107,7 @@ def read_toml(path: str, limit: int, error: type[PostprocError], what: str) -> t
     import tomllib  # only when a TOML file is read: every run starts faster without it
 
     data = read(path, limit, error, what).data
+    path = named(path)
     if data.startswith(b"\xef\xbb\xbf"):  # a UTF-8 byte order mark, as Windows editors save: not TOML, but harmless
         data = data[3:]
     try:
@@ -180,7 +181,14 @@ def recorded(path: str) -> Snapshot | None:
     return found if isinstance(found, Snapshot) else None
 
 
+def named(path: str) -> str:
+    """A path as messages name it: ``-`` is standard input, ``<stdin>``."""
+    return STDIN_NAME if path == "-" else path
+
+
 def _read(path: str, limit: int, error: type[PostprocError], what: str) -> Snapshot:
+    if path == "-":  # a measurement, model or profile piped in: `cat trace.csv | postproc ballbar -`
+        return read_stdin(STDIN_NAME, limit, error, what)
     where = Location(path)
     try:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))

@@ -132,17 +132,18 @@ class Spool:
     """
 
     def __init__(self, given: str | None = STDOUT):
-        self.destination = STDOUT if given is KEEP else given  #: as given, for messages
+        self.destination = STDOUT if given is KEEP else given  #: as given
+        self.where = Location("<stdout>" if self.destination == STDOUT else self.destination)  #: for messages
         self.keep = given is KEEP
         if given is KEEP or given == STDOUT:
             self.target: Destination | None = None
             if given == STDOUT and (sys.stdout is None or getattr(sys.stdout, "buffer", None) is None):
                 raise OutputError("cannot write output: standard output is closed; nothing was written",
                                   Location("<stdout>"))
-            self.directory = temporary(Location(self.destination), "")[0]
+            self.directory = temporary(self.where, "")[0]
         else:
             self.target = destination(given)
-            self.directory = temporary(Location(self.destination), "")[0] if self.target.through else \
+            self.directory = temporary(self.where, "")[0] if self.target.through else \
                 os.path.dirname(self.target.path)
         self.path: str | None = None
         fd = self._anonymous()
@@ -152,7 +153,7 @@ class Spool:
             try:
                 fd, self.path = tempfile.mkstemp(prefix=name, suffix=".tmp", dir=self.directory)
             except OSError as exc:
-                raise OutputError(f"cannot write output: {explain(exc)}", Location(self.destination)) from None
+                raise OutputError(f"cannot write output: {explain(exc)}", self.where) from None
         self.file: BinaryIO = os.fdopen(fd, "w+b")
         self._done = False
 
@@ -163,7 +164,7 @@ class Spool:
             return os.open(self.directory, os.O_TMPFILE | os.O_RDWR, 0o600)
         except OSError as exc:
             if exc.errno in (errno.ENOENT, errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOSPC, errno.ENOTDIR):
-                raise OutputError(f"cannot write output: {explain(exc)}", Location(self.destination)) from None
+                raise OutputError(f"cannot write output: {explain(exc)}", self.where) from None
             return None  # a file system without O_TMPFILE: a named temporary file instead
 
     def write(self, data: bytes) -> None:
@@ -171,7 +172,7 @@ class Spool:
             self.file.write(data)
         except OSError as exc:
             self.discard()
-            raise OutputError(f"cannot write output: {explain(exc)}", Location(self.destination)) from None
+            raise OutputError(f"cannot write output: {explain(exc)}", self.where) from None
 
     def value(self) -> bytes:
         """Everything written so far (a spool made with :data:`KEEP`)."""
@@ -206,7 +207,7 @@ class Spool:
             raise
         except OSError as exc:
             self.discard()
-            raise OutputError(f"cannot write output: {explain(exc)}", Location(self.destination)) from None
+            raise OutputError(f"cannot write output: {explain(exc)}", self.where) from None
         self._done = True
 
     def _copy_out(self) -> None:
@@ -246,7 +247,7 @@ class Spool:
             raise
         except OSError as exc:
             self.discard()
-            raise OutputError(f"cannot write output: {explain(exc, written)}", Location(self.destination)) from None
+            raise OutputError(f"cannot write output: {explain(exc, written)}", self.where) from None
         self.discard()
 
     def _name(self) -> None:

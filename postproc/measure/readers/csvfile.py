@@ -144,7 +144,7 @@ def measured_time(path: str) -> dt.datetime | None:
 
 def read_text(path: str) -> str:
     """A measurement file's text, from its one read: at most MAX_BYTES, UTF-8 (a BOM dropped)."""
-    return _decode(path, snapshot(path).data)
+    return _decode(inputs.named(path), snapshot(path).data)
 
 
 def snapshot(path: str) -> inputs.Snapshot:
@@ -159,6 +159,7 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
     accepts (each a list of column names, in any order).
     """
     lines = read_text(path).splitlines()
+    path = inputs.named(path)
     first = lines[0].strip()
     if first != magic:
         other = MAGICS.get(first)
