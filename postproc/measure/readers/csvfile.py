@@ -53,7 +53,9 @@ class Table:
 
     # -- header values --------------------------------------------------------------
 
-    def number(self, key: str, default: float | None = None, positive: bool = False, required: bool = False) -> float | None:
+    def number(self, key: str, default: float | None = None, positive: bool = False, required: bool = False,
+               at_most: tuple[float, str] | None = None) -> float | None:
+        """A header number; ``at_most``: (the largest plausible value, what a larger one most likely is)."""
         if key not in self.header:
             if required:
                 raise self.error(f"the header key {key!r} is required")
@@ -64,6 +66,8 @@ class Table:
             raise self.error(f"{key} = {text!r} is not a number", line)
         if positive and value <= 0:
             raise self.error(f"{key} must be positive, not {text}", line)
+        if at_most is not None and value > at_most[0]:
+            raise self.error(f"{key} = {text} is above {at_most[0]:g}: {at_most[1]}", line)
         return value
 
     def choice(self, key: str, options: tuple[str, ...], default: str | None = None, required: bool = False,
