@@ -171,7 +171,7 @@ class Pipeline:
         opening, anchor = self._prologue(source)
         steps = interpret_source(source, self.profile, self.reporter, rewriting=True)
         region = Region(self.request.regions, source.labels if self.request.regions else None, source.name)
-        rewriter = Rewriter(steps, self._corrector(), self.profile, self.request, self.reporter, source.name,
+        rewriter = Rewriter(steps, self._corrector(source.name), self.profile, self.request, self.reporter, source.name,
                             selects=region)
         lead = Lead()  # the tape mark and program number go before the provenance block
         written = 0  # blocks written: one per source line up to the anchor, none of them replaced
@@ -283,15 +283,19 @@ class Pipeline:
         raise SafetyError("this program was already compensated by postproc; give --force to compensate it again",
                           where)
 
-    def _corrector(self):
-        """The corrections of every compensator for a run of pieces, checked and added."""
+    def _corrector(self, program: str):
+        """The corrections of every compensator for a run of pieces, checked and added. A
+        compensator's refusal that names no file (``the arc of line 10 ...``) is the program's."""
         compensators = self.compensators
         model = self.request.model
 
         def correct(pieces: list[Piece]) -> list[np.ndarray | None]:
             totals: list[np.ndarray | None] | None = None
             for compensator in compensators:
-                shifts = self._guarded(compensator, "correct", compensator.correct_many, pieces, model=model)
+                try:
+                    shifts = self._guarded(compensator, "correct", compensator.correct_many, pieces, model=model)
+                except PostprocError as exc:
+                    raise exc.at(Location(program)) from None
                 checked = _checked(compensator.name, shifts, pieces)
                 if totals is None:  # the first compensator's corrections are the sums so far
                     totals = checked

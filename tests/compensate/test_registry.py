@@ -481,6 +481,33 @@ def test_a_compensator_that_exits_or_returns_what_no_compensator_returns_is_name
     assert f"plugin 'test-shop': {words}" in result.stderr, result.stderr
 
 
+def _refuses(kind):
+    def correct(self, piece):
+        from postproc import diagnostics
+
+        raise getattr(diagnostics, kind)(f"test-shop: the move on line {piece.move.line} is beyond what was measured")
+
+    return correct
+
+
+@pytest.mark.parametrize("kind, code", [("OptionError", 3), ("SafetyError", 4), ("MeasurementError", 3)])
+def test_a_compensators_refusal_of_a_move_names_the_program(run, registered, tmp_path, kind, code):
+    """'postproc: error: ballbar-inverse: the arc of line 10 ...' named a line of no file: a
+    compensator knows the move's line, the host the program's name, and puts them together."""
+    registered(_compensator(correct=_refuses(kind)))
+    program = tmp_path / "part.nc"
+    program.write_text(open(HEMISHELL).read())
+    result = run("compensate", str(program), "--plugin", "test-shop")
+    assert result.exit_code == code
+    assert result.stderr.startswith(f"{program}: error: test-shop: the move on line "), result.stderr
+
+
+def test_the_built_in_radius_refusal_names_the_program(run):
+    result = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", CCW)
+    assert result.exit_code == 3
+    assert result.stderr.startswith(f"{HEMISHELL}: error: ballbar-inverse: the arc of line 10 has radius"), result.stderr
+
+
 def test_what_a_compensator_prints_goes_to_stderr_never_into_the_program(run, registered):
     def fit(self, measurements):
         print("G00 X0. Z0. (fitted!)")
