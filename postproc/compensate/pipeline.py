@@ -16,6 +16,7 @@ read in whatever units the control was left in. The header says what was added w
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 import signal
@@ -100,8 +101,21 @@ class Pipeline:
             raise UsageError("a model is fitted for one compensator: give one --plugin")
         compensator, item = self.compensators[0], self.installed[0]
         model = self._guarded(compensator, "model", compensator.model)
-        return models.build(compensator.name, item.version, model, self.inputs, self.profile,
-                            self.settings[compensator.name], note, models.measured_at(self.measured, self.reporter))
+        try:
+            data = models.build(compensator.name, item.version, model, self.inputs, self.profile,
+                                self.settings[compensator.name], note, models.measured_at(self.measured, self.reporter))
+            saved = models.read_back(data)
+        except (TypeError, ValueError, ModelError) as exc:
+            raise PluginError(compensator.name, f"its model would not read back: {getattr(exc, 'message', exc)}") from None
+        # and the compensator takes it back, as compensate --model will give it
+        fresh = item.cls(dataclasses.replace(compensator.context, reporter=Reporter()), self.settings[compensator.name])
+        try:
+            self._guarded(fresh, "load of its own model", fresh.load, saved["model"])
+        except ModelError as exc:
+            raise PluginError(compensator.name, f"its model would not load back: {exc.message}") from None
+        except SafetyError:  # a refusal --force overrides: compensate --model says it again
+            pass
+        return data
 
     # ------------------------------------------------------------------ measurements
 
