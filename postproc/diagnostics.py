@@ -252,11 +252,14 @@ class Reporter:
         self.limit = limit
         self.warnings: list[Diagnostic] = []
         self._seen: dict[str, int] = {}
+        #: where a warning that names no place is about: the program being compensated, while it
+        #: is (a compensator knows a move's line, not the program's name)
+        self.about: Location | None = None
 
     def warn(self, message: str, location: Location | None = None) -> None:
         count = self._seen.get(message, 0) + 1
         self._seen[message] = count
-        warning = Diagnostic(message, location)
+        warning = Diagnostic(message, location or self.about)
         if count <= self.limit:
             self.warnings.append(warning)
             if self.stream is not None:

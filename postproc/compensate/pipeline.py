@@ -174,7 +174,15 @@ class Pipeline:
     # ------------------------------------------------------------------ programs
 
     def run(self, source: Source, spool: Spool) -> Rewriter:
-        """Compensate one program into ``spool`` (the caller commits it)."""
+        """Compensate one program into ``spool`` (the caller commits it). A warning that names
+        no place while it runs is about this program."""
+        self.reporter.about = Location(source.name)
+        try:
+            return self._run(source, spool)
+        finally:
+            self.reporter.about = None
+
+    def _run(self, source: Source, spool: Spool) -> Rewriter:
         self._refuse_twice(source)
         if any(c.needs_survey for c in self.compensators):
             moves = [m for step in interpret_source(source, self.profile, Reporter())

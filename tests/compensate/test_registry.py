@@ -502,6 +502,25 @@ def test_a_compensators_refusal_of_a_move_names_the_program(run, registered, tmp
     assert result.stderr.startswith(f"{program}: error: test-shop: the move on line "), result.stderr
 
 
+def test_a_compensators_warning_about_a_move_names_the_program_in_a_batch(run, registered, tmp_path):
+    """'postproc: warning: parametric: the move on line 87 leaves the box...' said which line of
+    which program? In a batch, none: a warning that names no place, while a program is being
+    compensated, is about that program."""
+    def correct(self, piece):
+        self.context.reporter.warn(f"test-shop: the move on line {piece.move.line} is held")
+
+    registered(_compensator(correct=correct))
+    programs = []
+    for name in ("a.nc", "b.nc"):
+        programs.append(tmp_path / name)
+        programs[-1].write_text(open(HEMISHELL).read())
+    result = run("compensate", *map(str, programs), "--plugin", "test-shop", "--out-dir", str(tmp_path / "out"))
+    assert result.exit_code == 0, result.stderr
+    for program in programs:
+        assert f"{program}: warning: test-shop: the move on line 9 is held" in result.stderr, result.stderr
+    assert "postproc: warning: test-shop" not in result.stderr
+
+
 def test_the_built_in_radius_refusal_names_the_program(run):
     result = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", CCW)
     assert result.exit_code == 3
