@@ -251,14 +251,15 @@ class Reporter:
         self.stream = stream
         self.limit = limit
         self.warnings: list[Diagnostic] = []
-        self._seen: dict[str, int] = {}
+        self._seen: dict[tuple[str, Location | None], int] = {}
         #: where a warning that names no place is about: the program being compensated, while it
         #: is (a compensator knows a move's line, not the program's name)
         self.about: Location | None = None
 
     def warn(self, message: str, location: Location | None = None) -> None:
-        count = self._seen.get(message, 0) + 1
-        self._seen[message] = count
+        key = (message, self.about)  # counted per program: a batch's 21st program is warned as its first was
+        count = self._seen.get(key, 0) + 1
+        self._seen[key] = count
         warning = Diagnostic(message, location or self.about)
         if count <= self.limit:
             self.warnings.append(warning)
@@ -269,9 +270,10 @@ class Reporter:
         """Say how many repeated warnings were not shown."""
         if self.stream is None:
             return
-        for message, count in self._seen.items():
+        for (message, about), count in self._seen.items():
             if count > self.limit:
-                say(f"postproc: warning: {count - self.limit} more like: {message}", self.stream)
+                where = about.prefix() if about is not None else "postproc"
+                say(f"{where}: warning: {count - self.limit} more like: {message}", self.stream)
 
 
 def say(text: str, stream: TextIO) -> None:
