@@ -723,9 +723,9 @@ def profile_show(machine):
     context = click.get_current_context()
     shown = _profile(machine)  # checked whole before anything is printed
     if shown.extra.get("simulation") is not None:
-        from ..simulator.config import from_table
+        from .simulate import check_table
 
-        from_table(shown.extra["simulation"], shown, machine)
+        check_table(shown, machine)
     project = context.find_root().meta.get(PROJECT)
     if project is not None and project.path:
         click.echo(f"# project file: {project.path}")
