@@ -176,6 +176,7 @@ class EffectiveAngle(ErrorFunctions):
 
     def finish(self) -> None:
         """Warn when the tables are predicted to leave this program worse than no compensation."""
+        super().finish()
         before, after = self.prediction.figures()
         self.prediction = Prediction()
         if before is None:

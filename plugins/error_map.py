@@ -144,8 +144,9 @@ class ErrorMap(Compensator):
                                        f"{found[0]}", found[1])
             raise MeasurementError(
                 f"{self.name}: on {ballbar_fit.arcs_text(traces)}, {'; '.join(vague)} (3 sigma) "
-                f"{'is' if len(vague) == 1 else 'are'} above {limit * 1000:g} um: measure both directions, longer arcs, "
-                "or tests about more centres (--option max-uncertainty=MM allows more)", Location(traces[0].path))
+                f"{'is' if len(vague) == 1 else 'are'} above {limit * 1000:g} um: measure "
+                f"{ballbar_fit.more_evidence(traces, 'tests about more centres')} (--option max-uncertainty=MM allows "
+                "more)", Location(traces[0].path))
 
     def largest_sigma(self) -> tuple[float, tuple[float, float]]:
         """The largest 1-sigma of either component at the uncertainty grid's points inside the support."""

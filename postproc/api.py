@@ -13,13 +13,19 @@ For many programs, build the pipeline once (the measurements are read and fitted
 ...     pipeline.compensate_file(path, "out/" + path.name)
 
 Errors are :class:`postproc.diagnostics.PostprocError` subclasses with the same messages and
-exit codes as the command line; warnings are collected in ``pipeline.warnings``.
+exit codes as the command line; warnings are collected in ``pipeline.warnings``. Arguments are
+checked as the command line's options are: a value of the wrong type (one string where a list
+of them is expected, which Python would read letter by letter; a mode the command line has no
+choice for; a flag that is not a bool) is an :class:`~postproc.diagnostics.OptionError` naming
+the argument, never a guess. Paths may be ``str`` or :class:`os.PathLike`.
 """
 
 from __future__ import annotations
 
+import os
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Any, Sequence
 
 from .machine import bounds
 from .machine import profile as profiles
@@ -56,7 +62,7 @@ class Pipeline:
         options: Sequence[str] = (),
         tolerance: float | None = None,
         mode: str = "auto",
-        machine: str | profiles.MachineProfile | None = None,
+        machine: str | os.PathLike | Mapping | profiles.MachineProfile | None = None,
         max_correction: float | None = None,
         force: bool = False,
         regions: Sequence[str] = (),
@@ -66,17 +72,24 @@ class Pipeline:
     ):
         from .compensate.region import Region
 
-        Region(list(regions))  # refuse a bad region before anything is read
-        if macro_values not in ("refuse", "keep", "numbers"):
-            raise OptionError(f"--macro-values {macro_values}: expected refuse, keep or numbers")
+        plugins, options, regions = (_strings(name, value) for name, value in
+                                     (("plugins", plugins), ("options", options), ("regions", regions)))
+        ballbar, probe = _paths("ballbar", ballbar), _paths("probe", probe)
+        calibration, model = _path("calibration", calibration), _path("model", model)
+        _choice("mode", mode, ("auto", "arc", "line"))
+        _choice("macro_values", macro_values, ("refuse", "keep", "numbers"))
+        for name, value in (("force", force), ("keep_unplannable", keep_unplannable)):
+            if not isinstance(value, bool):
+                raise OptionError(f"{name}={value!r}: expected True or False")
+        if reporter is not None and not isinstance(reporter, Reporter):
+            raise OptionError(f"reporter={reporter!r}: expected a postproc.diagnostics.Reporter or None")
+        Region(regions)  # refuse a bad region before anything is read
 
-        if isinstance(machine, str):
-            machine = profiles.load(machine)
-        self.profile = machine or profiles.DEFAULT
+        self.profile = _profile(machine)
         bounds.in_force(tolerance, max_correction, self.profile)
         self.reporter = reporter or Reporter()
-        self.request = Request(plugins=list(plugins), ballbar=list(ballbar), probe=list(probe), calibration=calibration,
-                               model=model, options=list(options), tolerance=tolerance, mode=mode,
+        self.request = Request(plugins=plugins, ballbar=ballbar, probe=probe, calibration=calibration,
+                               model=model, options=options, tolerance=tolerance, mode=mode,
                                max_correction=max_correction, force=force, regions=list(regions),
                                keep_unplannable=keep_unplannable, macro_values=macro_values)
         self.core = None
@@ -105,6 +118,7 @@ class Pipeline:
     def compensate_file(self, path: str, output: str) -> Summary:
         """Compensate the program at ``path`` into ``output`` (``-`` for stdout), atomically. An
         output that is the program or one of the measurement files is refused (UsageError)."""
+        path, output = _path("path", path), _path("output", output)
         request = self.request
         read = [("program", path), ("--calibration", request.calibration), ("--model", request.model)]
         read += [("--ballbar", name) for name in request.ballbar] + [("--probe", name) for name in request.probe]
@@ -116,6 +130,8 @@ class Pipeline:
 
     def compensate_text(self, text: str, name: str = "<text>") -> str:
         """Compensate a program held in a string; returns the compensated program."""
+        if not isinstance(text, (str, bytes)):
+            raise OptionError(f"text: expected the program as a str (or bytes), not {type(text).__name__}")
         with Source.from_text(text, name) as source:
             return self.compensated(source).decode("utf-8", "surrogateescape")
 
@@ -129,3 +145,55 @@ class Pipeline:
 def compensate_text(text: str, name: str = "<text>", **options) -> str:
     """Compensate a program held in a string with the options of :class:`Pipeline`."""
     return Pipeline(**options).compensate_text(text, name)
+
+
+def _strings(name: str, value: Any) -> list[str]:
+    """A list argument of strings; one string alone is refused (Python would read it letter by letter)."""
+    if isinstance(value, (str, bytes, os.PathLike)):
+        raise OptionError(f"{name}={value!r}: expected a list ({name}=[{value!r}])")
+    try:
+        items = list(value)
+    except TypeError:
+        raise OptionError(f"{name}={value!r}: expected a list of strings") from None
+    for item in items:
+        if not isinstance(item, str):
+            raise OptionError(f"{name}: {item!r} is not a string")
+    return items
+
+
+def _paths(name: str, value: Any) -> list[str]:
+    """A list argument of paths (str or os.PathLike), as strings."""
+    if isinstance(value, (str, bytes, os.PathLike)):
+        raise OptionError(f"{name}={value!r}: expected a list of paths ({name}=[{value!r}])")
+    try:
+        return [_path(name, item) for item in value]
+    except TypeError:
+        raise OptionError(f"{name}={value!r}: expected a list of paths") from None
+
+
+def _path(name: str, value: Any) -> str | None:
+    """One path argument (str or os.PathLike), as a string; None stays None."""
+    if value is None:
+        return None
+    if isinstance(value, os.PathLike):
+        value = os.fspath(value)
+    if not isinstance(value, str) or not value:
+        raise OptionError(f"{name}: {value!r} is not a path (a str or os.PathLike)")
+    return value
+
+
+def _choice(name: str, value: Any, choices: tuple[str, ...]) -> None:
+    if value not in choices:
+        raise OptionError(f"{name}={value!r}: expected {', '.join(choices[:-1])} or {choices[-1]}")
+
+
+def _profile(machine: Any) -> profiles.MachineProfile:
+    """The machine profile of a ``machine`` argument: a TOML path, a profile, a mapping of a
+    profile file's keys, or None (the default profile)."""
+    if machine is None:
+        return profiles.DEFAULT
+    if isinstance(machine, profiles.MachineProfile):
+        return machine
+    if isinstance(machine, Mapping):
+        return profiles.from_mapping(dict(machine), "<machine>")
+    return profiles.load(_path("machine", machine))

@@ -43,7 +43,7 @@ class Location:
     source: str | None = None  #: the text of that line, for the caret display
 
     def prefix(self) -> str:
-        parts = [self.file]
+        parts = [STDIN_NAME if self.file == "-" else self.file]  # a file given as -, standard input
         if self.line is not None:
             parts.append(str(self.line))
             if self.col is not None:
@@ -251,12 +251,16 @@ class Reporter:
         self.stream = stream
         self.limit = limit
         self.warnings: list[Diagnostic] = []
-        self._seen: dict[str, int] = {}
+        self._seen: dict[tuple[str, Location | None], int] = {}
+        #: where a warning that names no place is about: the program being compensated, while it
+        #: is (a compensator knows a move's line, not the program's name)
+        self.about: Location | None = None
 
     def warn(self, message: str, location: Location | None = None) -> None:
-        count = self._seen.get(message, 0) + 1
-        self._seen[message] = count
-        warning = Diagnostic(message, location)
+        key = (message, self.about)  # counted per program: a batch's 21st program is warned as its first was
+        count = self._seen.get(key, 0) + 1
+        self._seen[key] = count
+        warning = Diagnostic(message, location or self.about)
         if count <= self.limit:
             self.warnings.append(warning)
             if self.stream is not None:
@@ -266,9 +270,10 @@ class Reporter:
         """Say how many repeated warnings were not shown."""
         if self.stream is None:
             return
-        for message, count in self._seen.items():
+        for (message, about), count in self._seen.items():
             if count > self.limit:
-                say(f"postproc: warning: {count - self.limit} more like: {message}", self.stream)
+                where = about.prefix() if about is not None else "postproc"
+                say(f"{where}: warning: {count - self.limit} more like: {message}", self.stream)
 
 
 def say(text: str, stream: TextIO) -> None:

@@ -114,3 +114,24 @@ def test_a_replacement_the_interpreter_refuses_is_still_a_refusal(run, tmp_path,
     assert result.exit_code == EXIT_REFUSED
     assert "error: self-check: the replacement does not read back (arc end point not on the arc)" in result.stderr
     assert result.stdout == "" and not output.exists()
+
+
+def test_repeated_warnings_are_counted_per_program_and_the_count_names_it():
+    """A warning repeated more than 20 times is shown 20 times, then counted: per program, so
+    that in a batch the 21st program with the habit is warned as the first was."""
+    import io
+
+    stream = io.StringIO()
+    reporter = diagnostics.Reporter(stream)
+    for program in ("a.nc", "b.nc"):
+        reporter.about = Location(program)
+        for _ in range(25):
+            reporter.warn("the same habit")
+    reporter.about = None
+    reporter.warn("the same habit")
+    reporter.close()
+    lines = stream.getvalue().splitlines()
+    assert [str(w) for w in reporter.warnings].count("a.nc: warning: the same habit") == 20
+    assert [str(w) for w in reporter.warnings].count("b.nc: warning: the same habit") == 20
+    assert "postproc: warning: the same habit" in lines
+    assert lines[-2:] == ["a.nc: warning: 5 more like: the same habit", "b.nc: warning: 5 more like: the same habit"]

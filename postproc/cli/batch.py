@@ -35,6 +35,8 @@ def _one(job: tuple[str, str]) -> Outcome:
     name, destination = job
     pipeline = _pipeline
     before = len(pipeline.reporter.warnings)
+    # a program's warnings are told with its summary line (_tell), not as they happen as well
+    stream, pipeline.reporter.stream = pipeline.reporter.stream, None
     try:
         summary = pipeline.compensate_file(name, destination)
     except PostprocError as exc:
@@ -42,6 +44,8 @@ def _one(job: tuple[str, str]) -> Outcome:
         return Outcome(name, exc.exit_code, f"{name}: failed (exit {exc.exit_code})", warnings + (str(exc),))
     except Exception as exc:  # a bug in one file must not stop the others
         return Outcome(name, EXIT_INTERNAL, f"{name}: failed (internal error)", (f"postproc: internal error: {exc!r}",))
+    finally:
+        pipeline.reporter.stream = stream
     warnings = tuple(str(w) for w in pipeline.reporter.warnings[before:])
     line = (f"{name}: ok -> {destination}: {summary.replaced} blocks replaced by {summary.emitted}, largest correction "
             f"{summary.largest_correction * 1000:.2f} um, largest deviation {summary.largest_deviation * 1000:.3f} um")

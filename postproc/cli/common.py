@@ -70,6 +70,10 @@ def guard(inputs, outputs) -> None:
     context = click.get_current_context()
     project = context.find_root().meta.get(PROJECT)
     inputs = [(option, path) for option, path in inputs if path]
+    piped = [option for option, path in inputs if path == "-"]
+    if len(piped) > 1:
+        raise UsageError(f"standard input (-) is given {len(piped)} times ({', '.join(piped)}): it is read once, as "
+                         "one file; give the others as files (or as <(command) in bash)")
     if project is not None and project.path:  # the project file is read by every run
         inputs.append(("the project file", project.path))
     log = context.meta.get(LOG)

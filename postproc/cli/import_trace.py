@@ -26,12 +26,14 @@ import click
 import numpy as np
 
 from ..diagnostics import Location, MeasurementError, Reporter, UsageError
-from ..measure.readers.ballbar import MAGIC, make_trace, raw_samples, repeated_angle
+from ..measure.readers.ballbar import MAGIC, REPEATED, make_trace, raw_samples, repeated_angle
 from ..measure.readers.csvfile import read_text
 from ..files.output import STDOUT, write_atomically
 from .common import FINITE, examples, guard
 
 DELIMITERS = {"comma": ",", "semicolon": ";", "tab": "\t", "space": None}
+#: um; a trace in um whose largest deviation is below this (a ballbar's resolution) is in mm
+MIN_LARGEST_UM = 0.1
 
 
 @dataclass
@@ -61,7 +63,7 @@ class Table:
 @click.option("--capture-arc", type=FINITE, metavar="DEG", help="Raw deviations: the arc captured (default 360).")
 @click.option("--columns", metavar="ANGLE,DEVIATION|DEVIATION",
               help="Which columns hold the angle and the deviation (1-based numbers or header names); "
-                   "default: the first two, or the only one.")
+                   "required when the rows have more cells than that.")
 @click.option("--delimiter", default="auto", show_default=True, metavar="auto|comma|semicolon|tab|space|CHAR",
               help="What separates the cells.")
 @click.option("--decimal-comma", is_flag=True, help="Numbers are written 1,25 (the delimiter is then not a comma).")
@@ -100,6 +102,10 @@ def command(file, radius, direction, center_x, center_z, feed, start_angle, capt
             raise MeasurementError(f"deviation {deviation:g} mm is beyond 1 mm: not a plausible ballbar reading "
                                    f"(micrometres read as millimetres? give --unit um)",
                                    Location(file, line, cols[picked[-1]], table.lines[line - 1]))
+    if unit == "um" and np.abs(deviations).max() < MIN_LARGEST_UM / 1000.0:
+        raise MeasurementError(f"with --unit um every deviation is within {np.abs(deviations).max() * 1000:.3g} um, "
+                               f"below {MIN_LARGEST_UM:g} um: no ballbar reads a machine that round (millimetres "
+                               "read as micrometres? leave out --unit um)", Location(file))
     sign = -1.0 if reverse_angles else 1.0
     header = {"radius_mm": f"{radius:.10g}", "direction": direction, "center_x_mm": f"{center_x:.10g}",
               "center_z_mm": f"{center_z:.10g}"}
@@ -115,7 +121,8 @@ def command(file, radius, direction, center_x, center_z, feed, start_angle, capt
         again = repeated_angle(np.mod(angles, 360.0))
         if again is not None:
             line, _, cols = table.rows[again[0]]
-            raise MeasurementError(f"angle {angles[again[0]]:g} deg again (first on line {table.rows[again[1]][0]})",
+            raise MeasurementError(f"angle {angles[again[0]]:g} deg again (first on line {table.rows[again[1]][0]}): "
+                                   f"{REPEATED}",
                                    Location(file, line, cols[picked[0]], table.lines[line - 1]))
         samples = deviations
         rows = ["angle_deg,deviation_mm"] + [f"{a:.10g},{d:.10g}" for a, d in zip(np.mod(angles, 360.0), deviations)]
@@ -212,6 +219,11 @@ def _columns(table: Table, spec: str | None, raw: bool) -> list[int]:
         if width == 1 and not raw:
             raise UsageError(f"{table.path} has one column (raw deviations?): give --start-angle, and --capture-arc "
                              "if the capture is less than 360 deg")
+        if width > wanted:  # which of them is which would be a guess
+            named = f" ({', '.join(table.names)})" if len(table.names) == width else ""
+            what = ("which holds the raw deviations with --columns DEVIATION" if raw else
+                    "which hold the angle and the deviation with --columns ANGLE,DEVIATION")
+            raise UsageError(f"{table.path} has {width} columns{named}: say {what} (1-based numbers or header names)")
         return [0] if raw else [0, 1]
     parts = [part.strip() for part in spec.split(",")]
     if len(parts) != wanted:

@@ -724,12 +724,18 @@ def profile():
 @_reported
 def profile_show(machine):
     """Print the machine profile in force, as TOML, after two comment lines: the project file
-    used and where the profile came from."""
+    used and where the profile came from. The whole profile is checked first (its
+    ``[simulation]`` table too, which is not printed): a bad one prints nothing."""
     from click.core import ParameterSource
 
     from ..machine.profile import to_toml
 
     context = click.get_current_context()
+    shown = _profile(machine)  # checked whole before anything is printed
+    if shown.extra.get("simulation") is not None:
+        from .simulate import check_table
+
+        check_table(shown, machine)
     project = context.find_root().meta.get(PROJECT)
     if project is not None and project.path:
         click.echo(f"# project file: {project.path}")
@@ -738,7 +744,7 @@ def profile_show(machine):
     source = context.get_parameter_source("machine")
     origin = ("the project file" if source is ParameterSource.DEFAULT_MAP else "--machine") if machine else None
     click.echo(f"# machine profile: {machine} (from {origin})" if machine else "# machine profile: the embedded default")
-    click.echo(to_toml(_profile(machine)), nl=False)
+    click.echo(to_toml(shown), nl=False)
 
 
 @profile.command("init", epilog=examples(
@@ -761,16 +767,17 @@ def profile_init(file, name):
     if file == "-":
         click.echo(text, nl=False)
         return
-    try:
-        fd = os.open(file, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
-    except FileExistsError:
-        raise UsageError(f"{file} exists: profile init never overwrites a file; give a new name") from None
-    except OSError as exc:
-        from ..files.output import OutputError, explain
+    from ..files.output import Spool
 
-        raise OutputError(f"cannot create the profile: {explain(exc)}", Location(file)) from None
-    with os.fdopen(fd, "w", encoding="utf-8") as out:
-        out.write(text)
+    exists = UsageError(f"{file} exists: profile init never overwrites a file; give a new name")
+    if os.path.lexists(file):
+        raise exists
+    with Spool(file) as spool:  # complete or not at all: a full disk leaves no empty profile behind
+        spool.write(text.encode("utf-8"))
+        try:
+            spool.commit(new=True)
+        except FileExistsError:
+            raise exists from None
     progress.inform(f"{file}: starter machine profile written; edit it, then check it with "
                     f"'postproc profile show --machine {file}'")
 

@@ -82,6 +82,7 @@ def load(path: str | None = None, start: str | None = None) -> Project:
     data, text = inputs.read_toml(path, MAX_BYTES, OptionError, "a project file")
     folder = os.path.dirname(os.path.abspath(path))
     values = {}
+    inputs.spellings(data, path, text, OptionError)
     for key, value in data.items():
         name = key.replace("-", "_")
         where = inputs.toml_key(path, text, key)

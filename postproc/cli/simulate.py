@@ -26,6 +26,14 @@ from ..simulator.nominal import run_program
 from .common import FINITE, FROM_LINE, MACHINE, TO_LINE, examples, guard
 
 
+def check_table(profile, origin: str) -> None:
+    """Refuse a profile's ``[simulation]`` table as ``simulate`` would read it (for ``profile
+    show``, which checks what it does not print)."""
+    from ..simulator.config import from_table
+
+    from_table(profile.extra["simulation"], profile, origin)
+
+
 def _machine(function):
     return MACHINE(help="A machine profile (TOML) with a [simulation] table; without it, a perfect machine.")(function)
 

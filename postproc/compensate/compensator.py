@@ -214,6 +214,7 @@ def check_options(values: dict[str, Any], compensator: type["Compensator"], wher
 def parse_options(texts: Iterable[str], compensators: list[type[Compensator]]) -> dict[str, dict[str, Any]]:
     """``[PLUGIN.]KEY=VALUE`` texts scoped to the selected compensators (docs/formats.md §8.1)."""
     chosen: dict[str, dict[str, Any]] = {cls.name: {} for cls in compensators}
+    given: dict[tuple[str, str], tuple[bool, Any, str]] = {}  # (plugin, key) -> (scoped, value, text)
     by_name = {cls.name: cls for cls in compensators}
     for text in texts:
         if "=" not in text:
@@ -221,7 +222,8 @@ def parse_options(texts: Iterable[str], compensators: list[type[Compensator]]) -
         key, value = text.split("=", 1)
         key = key.strip()
         targets = list(by_name.values())
-        if "." in key:
+        scoped = "." in key
+        if scoped:
             plugin, key = key.split(".", 1)
             if plugin not in by_name:
                 raise OptionError(f"--option {text}: {plugin!r} is not a selected compensator")
@@ -231,5 +233,14 @@ def parse_options(texts: Iterable[str], compensators: list[type[Compensator]]) -
             raise OptionError(f"--option {text}: no selected compensator declares {key!r}")
         for cls in takers:
             option = next(option for option in cls.options if option.key == key)
-            chosen[cls.name][key] = option.parse(value.strip(), cls.name)
+            parsed = option.parse(value.strip(), cls.name)
+            earlier = given.get((cls.name, key))
+            if earlier is not None and earlier[0] == scoped and earlier[1] != parsed:
+                # two values of one setting: which was meant is a guess, whichever comes last
+                raise OptionError(f"--option {text}: {cls.name}.{key} is set twice, to two values (--option "
+                                  f"{earlier[2]} and --option {text}); give it once")
+            if earlier is not None and earlier[0] and not scoped:
+                continue  # PLUGIN.KEY=VALUE is that compensator's, whatever the order
+            given[(cls.name, key)] = (scoped, parsed, text)
+            chosen[cls.name][key] = parsed
     return chosen

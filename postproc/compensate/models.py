@@ -106,14 +106,23 @@ def dumps(data: dict[str, Any]) -> str:
         raise ModelError(f"the model cannot be saved as JSON: {exc}") from None
 
 
+def read_back(data: dict[str, Any]) -> dict[str, Any]:
+    """A model's content as :func:`read` will read it from its file, held to what read holds a
+    file to: what ``postproc fit`` writes is checked before it is written."""
+    reread = json.loads(dumps(data), parse_constant=_not_a_number)
+    _check(reread, Location("<model>"))
+    return reread
+
+
 def read(path: str) -> dict[str, Any]:
     """A model file, checked as strictly as the command line checks options: JSON of at most
     MAX_BYTES, its format, version and hash, every key of the right type, every number finite
     and plausible, every radius positive, the measurement time with its zone."""
-    where = Location(path)
+    where = Location(inputs.named(path))
     raw = inputs.read(path, MAX_BYTES, ModelError, "a model").data
     try:
-        data = json.loads(raw.decode("utf-8"), parse_constant=_not_a_number)
+        # utf-8-sig: a byte order mark, as an editor on Windows saves a model looked at, is no content
+        data = json.loads(raw.decode("utf-8-sig"), parse_constant=_not_a_number)
     except UnicodeDecodeError:
         raise ModelError("not a postproc model (not UTF-8 text)", where) from None
     except json.JSONDecodeError as exc:

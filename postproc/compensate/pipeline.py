@@ -16,11 +16,14 @@ read in whatever units the control was left in. The header says what was added w
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 import signal
+import sys
 import tempfile
 import threading
+from contextlib import redirect_stdout
 from typing import Any
 
 import numpy as np
@@ -98,8 +101,21 @@ class Pipeline:
             raise UsageError("a model is fitted for one compensator: give one --plugin")
         compensator, item = self.compensators[0], self.installed[0]
         model = self._guarded(compensator, "model", compensator.model)
-        return models.build(compensator.name, item.version, model, self.inputs, self.profile,
-                            self.settings[compensator.name], note, models.measured_at(self.measured, self.reporter))
+        try:
+            data = models.build(compensator.name, item.version, model, self.inputs, self.profile,
+                                self.settings[compensator.name], note, models.measured_at(self.measured, self.reporter))
+            saved = models.read_back(data)
+        except (TypeError, ValueError, ModelError) as exc:
+            raise PluginError(compensator.name, f"its model would not read back: {getattr(exc, 'message', exc)}") from None
+        # and the compensator takes it back, as compensate --model will give it
+        fresh = item.cls(dataclasses.replace(compensator.context, reporter=Reporter()), self.settings[compensator.name])
+        try:
+            self._guarded(fresh, "load of its own model", fresh.load, saved["model"])
+        except ModelError as exc:
+            raise PluginError(compensator.name, f"its model would not load back: {exc.message}") from None
+        except SafetyError:  # a refusal --force overrides: compensate --model says it again
+            pass
+        return data
 
     # ------------------------------------------------------------------ measurements
 
@@ -137,8 +153,11 @@ class Pipeline:
         failure on data (a missing key, a value of the wrong type), in loading it or in using it
         later, is the file's: a ModelError (exit 3), not the compensator's (exit 5)."""
         try:
-            with _time_limit(compensator.context.profile.plugin_time_limit_s):
+            # what a plugin prints goes to stderr: stdout carries the program alone
+            with _time_limit(compensator.context.profile.plugin_time_limit_s), redirect_stdout(sys.stderr):
                 return function(*args)
+        except SystemExit as exc:  # a plugin's sys.exit() would end the run "successfully", with nothing written
+            raise PluginError(compensator.name, f"{what} called sys.exit({exc.code!r})") from None
         except PostprocError as exc:
             raise exc.at(Location(model)) if model is not None else exc
         except (KeyError, IndexError, TypeError, ValueError, AttributeError, OverflowError) as exc:
@@ -155,7 +174,15 @@ class Pipeline:
     # ------------------------------------------------------------------ programs
 
     def run(self, source: Source, spool: Spool) -> Rewriter:
-        """Compensate one program into ``spool`` (the caller commits it)."""
+        """Compensate one program into ``spool`` (the caller commits it). A warning that names
+        no place while it runs is about this program."""
+        self.reporter.about = Location(source.name)
+        try:
+            return self._run(source, spool)
+        finally:
+            self.reporter.about = None
+
+    def _run(self, source: Source, spool: Spool) -> Rewriter:
         self._refuse_twice(source)
         if any(c.needs_survey for c in self.compensators):
             moves = [m for step in interpret_source(source, self.profile, Reporter())
@@ -166,7 +193,7 @@ class Pipeline:
         opening, anchor = self._prologue(source)
         steps = interpret_source(source, self.profile, self.reporter, rewriting=True)
         region = Region(self.request.regions, source.labels if self.request.regions else None, source.name)
-        rewriter = Rewriter(steps, self._corrector(), self.profile, self.request, self.reporter, source.name,
+        rewriter = Rewriter(steps, self._corrector(source.name), self.profile, self.request, self.reporter, source.name,
                             selects=region)
         lead = Lead()  # the tape mark and program number go before the provenance block
         written = 0  # blocks written: one per source line up to the anchor, none of them replaced
@@ -243,12 +270,19 @@ class Pipeline:
         inch = anchor.modal.inch if anchor is not None else False
         blocks: list[tuple[str, str]] = []
         for compensator in self.compensators:
-            for text in self._guarded(compensator, "prologue", compensator.prologue, inch, model=self.request.model):
+            given = self._guarded(compensator, "prologue", compensator.prologue, inch, model=self.request.model)
+            if not isinstance(given, (list, tuple)) or not all(isinstance(text, str) for text in given):
+                raise PluginError(compensator.name, f"prologue returned {given!r}, not a list of blocks (strings)")
+            for text in given:
                 try:
-                    for _ in Interpreter(self.profile, Reporter(), "<prologue>").run(read_blocks([text + "\n"], "<prologue>")):
-                        pass
+                    steps = list(Interpreter(self.profile, Reporter(), "<prologue>").run(
+                        read_blocks([f"G{20 if inch else 21}\n", text + "\n"], "<prologue>")))
                 except PostprocError as exc:
                     raise PluginError(compensator.name, f"its opening block {text!r} does not read: {exc.message}") from None
+                refused = _not_an_opening_block(steps)
+                if refused:
+                    raise PluginError(compensator.name, f"its opening block {text!r} {refused}; an opening block sets data "
+                                                        "(G10) or is a comment, and changes nothing the program relies on")
                 blocks.append((compensator.name, text))
         if blocks and anchor is None:
             where = Location(source.name, stop.block.line, 1, stop.block.text) if stop is not None else Location(source.name)
@@ -273,15 +307,19 @@ class Pipeline:
         raise SafetyError("this program was already compensated by postproc; give --force to compensate it again",
                           where)
 
-    def _corrector(self):
-        """The corrections of every compensator for a run of pieces, checked and added."""
+    def _corrector(self, program: str):
+        """The corrections of every compensator for a run of pieces, checked and added. A
+        compensator's refusal that names no file (``the arc of line 10 ...``) is the program's."""
         compensators = self.compensators
         model = self.request.model
 
         def correct(pieces: list[Piece]) -> list[np.ndarray | None]:
             totals: list[np.ndarray | None] | None = None
             for compensator in compensators:
-                shifts = self._guarded(compensator, "correct", compensator.correct_many, pieces, model=model)
+                try:
+                    shifts = self._guarded(compensator, "correct", compensator.correct_many, pieces, model=model)
+                except PostprocError as exc:
+                    raise exc.at(Location(program)) from None
                 checked = _checked(compensator.name, shifts, pieces)
                 if totals is None:  # the first compensator's corrections are the sums so far
                     totals = checked
@@ -377,6 +415,28 @@ class _time_limit:
         raise _Overtime()
 
 
+def _not_an_opening_block(steps: list[Step]) -> str:
+    """Why a compensator's opening block (interpreted after a units block) may not open a
+    program, or nothing. It goes in before the program's first tool call or move, so anything
+    but setting data would change how the program runs: a move, a modal change (G91, units,
+    spindle), a new coordinate system (G50, G54, G92), a tool call, a macro assignment the
+    program may read, parameter input (G10 L50, whose following blocks are read as parameters)."""
+    units, step = steps[0], steps[-1]
+    block = step.block
+    codes = [(address.upper(), str(value)) for address, value in block.codes]
+    if step.moves:
+        return "moves the machine"
+    if block.statement is not None:
+        return "is a macro statement"
+    if step.modal != units.modal or not step.interpreted:
+        return "changes the modal state"
+    g_codes = [value for address, value in codes if address == "G"]
+    if codes and (g_codes != ["10"] or any(address in "MSTFN" for address, _ in codes)
+                  or any(address == "L" and value.rstrip(".").lstrip("0") == "50" for address, value in codes)):
+        return "is not a G10 data setting"
+    return ""
+
+
 def _checked(name: str, shifts, pieces: list[Piece]) -> list[np.ndarray | None]:
     """A compensator's corrections, one (n, 2) array of finite values (or None) per piece."""
     if not isinstance(shifts, (list, tuple)) or len(shifts) != len(pieces):
@@ -385,7 +445,10 @@ def _checked(name: str, shifts, pieces: list[Piece]) -> list[np.ndarray | None]:
     checked = []
     for shift, piece in zip(shifts, pieces):
         if shift is not None:
-            shift = np.asarray(shift, dtype=float)
+            try:
+                shift = np.asarray(shift, dtype=float)
+            except (TypeError, ValueError) as exc:
+                raise PluginError(name, f"returned a correction that is not numbers ({exc})") from None
             if shift.shape != (len(piece.t), 2):
                 raise PluginError(name, f"returned a correction of shape {shift.shape} for {len(piece.t)} points")
         checked.append(shift)

@@ -27,6 +27,7 @@ import functools
 import os
 import re
 import sys
+import dataclasses
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -34,7 +35,7 @@ import pluggy
 
 from . import hookspecs
 from .compensator import Compensator
-from ..diagnostics import InternalError, OptionError, PluginError
+from ..diagnostics import OptionError, PluginError
 
 if TYPE_CHECKING:
     from ..measure.readers.registry import MeasurementReader
@@ -96,15 +97,45 @@ def _found(pm: pluggy.PluginManager) -> dict[str, Installed]:
     versions = {id(plugin): (dist.version, dist.project_name) for plugin, dist in pm.list_plugin_distinfo()}
     versions.update(_loaded_own)
     found: dict[str, Installed] = {}
+    provider: dict[str, str] = {}
     for impl in pm.hook.postproc_compensators.get_hookimpls():
         version, distribution = versions.get(id(impl.plugin), ("?", "?"))
-        for cls in impl.function() or ():
-            if not (isinstance(cls, type) and issubclass(cls, Compensator) and cls.name):
+        for cls in _offered(impl, "postproc_compensators"):
+            if not (isinstance(cls, type) and issubclass(cls, Compensator) and isinstance(cls.name, str) and cls.name):
                 raise PluginError(impl.plugin_name, f"postproc_compensators returned {cls!r}, not a named Compensator class")
+            _check_names(impl.plugin_name, cls)
             if cls.name in found:
-                raise InternalError(f"two plugins provide a compensator named {cls.name!r}")
+                raise PluginError(impl.plugin_name, f"two plugins provide a compensator named {cls.name!r} (this one "
+                                                    f"and {provider[cls.name]!r}); uninstall or rename one of them")
             found[cls.name] = Installed(cls, version, distribution)
+            provider[cls.name] = impl.plugin_name
     return found
+
+
+#: a compensator's name and its options' keys: what --plugin NAME and --option NAME.KEY=VALUE can spell
+_NAME = re.compile(r"[a-z0-9][a-z0-9_-]*")
+
+
+def _check_names(plugin: str, cls: type[Compensator]) -> None:
+    """Refuse a compensator the command line could not name, or whose options it could not tell apart."""
+    if not _NAME.fullmatch(cls.name):
+        raise PluginError(plugin, f"a compensator named {cls.name!r}: a name is lower-case letters, digits, '-' and "
+                                  "'_' (it is spelt on the command line, and in --option NAME.KEY=VALUE)")
+    keys = [getattr(option, "key", None) for option in cls.options]
+    for key in keys:
+        if not (isinstance(key, str) and _NAME.fullmatch(key)):
+            raise PluginError(plugin, f"compensator {cls.name!r} declares an option {key!r}: a key is lower-case "
+                                      "letters, digits, '-' and '_'")
+        if keys.count(key) > 1:
+            raise PluginError(plugin, f"compensator {cls.name!r} declares the option {key!r} twice")
+
+
+def _offered(impl, hook: str) -> list:
+    """What one plugin's hook implementation returns; a hook that fails is its plugin's fault."""
+    try:
+        return list(impl.function() or ())
+    except Exception as exc:
+        raise PluginError(impl.plugin_name, f"{hook} failed: {exc.__class__.__name__}: {exc}") from None
 
 
 def select(names: list[str]) -> list[Installed]:
@@ -271,8 +302,8 @@ def readers() -> list[MeasurementReader]:
 
     found: list[MeasurementReader] = []
     for impl in reversed(manager().hook.postproc_measurement_readers.get_hookimpls()):
-        for reader in impl.function() or ():
+        for reader in _offered(impl, "postproc_measurement_readers"):
             if not isinstance(reader, MeasurementReader):
                 raise PluginError(impl.plugin_name, f"postproc_measurement_readers returned {reader!r}")
-            found.append(reader)
+            found.append(dataclasses.replace(reader, plugin=impl.plugin_name))
     return found

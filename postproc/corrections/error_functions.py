@@ -157,6 +157,11 @@ class ErrorFunctions(Compensator):
         self.fit_figures = model.get("fit", {})
         self._warned = False
 
+    def finish(self) -> None:
+        """The program is done: the next one (a batch, a library's pipeline) is warned of its own
+        moves outside the box."""
+        self._warned = False
+
     def report(self) -> dict[str, Any]:
         (x0, x1), (z0, z1) = self.box
         return {**self._extent(), "square_mm": {"x": [x0, x1], "z": [z0, z1]},

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import Iterator
 
-from ..diagnostics import Location, PostprocError
+from ..diagnostics import STDIN_NAME, Location, PostprocError
 
 CHUNK = 1 << 20
 
@@ -107,6 +107,9 @@ def read_toml(path: str, limit: int, error: type[PostprocError], what: str) -> t
     import tomllib  # only when a TOML file is read: every run starts faster without it
 
     data = read(path, limit, error, what).data
+    path = named(path)
+    if data.startswith(b"\xef\xbb\xbf"):  # a UTF-8 byte order mark, as Windows editors save: not TOML, but harmless
+        data = data[3:]
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -130,19 +133,37 @@ def read_toml(path: str, limit: int, error: type[PostprocError], what: str) -> t
 
 def toml_key(path: str, text: str, key: str, table: str | None = None) -> Location:
     """Where ``key`` is written in a TOML text (at the top, or in ``[table]``): its line and
-    column, with the line for the caret; the file alone when it cannot be found (a key in an
-    inline table, say)."""
+    column, with the line for the caret; a key at the top that names a table (``[key]``,
+    ``[key.sub]``, ``[[key]]``) where its header is; the file alone when it cannot be found (a
+    key in an inline table, say)."""
     current = None
+    opened = None
     pattern = re.compile(rf"^(\s*)(?:{re.escape(key)}|\"{re.escape(key)}\"|'{re.escape(key)}')\s*=")
     for number, line in enumerate(text.splitlines(), 1):
-        header = re.match(r"^\s*\[\s*([^\]]+?)\s*\]", line)
+        header = re.match(r"^\s*\[+\s*([^\]]+?)\s*\]", line)
         if header:
             current = header.group(1).strip("\"'")
+            if opened is None and table is None and current.split(".")[0].strip().strip("\"'") == key:
+                opened = Location(path, number, header.start(1) + 1, line)
             continue
         found = pattern.match(line)
         if found and current == table:
             return Location(path, number, len(found.group(1)) + 1, line)
-    return Location(path)
+    return opened or Location(path)
+
+
+def spellings(data: dict, path: str, text: str | None, error: type[PostprocError]) -> dict[str, str]:
+    """Each key of a TOML table as read (``-`` for ``_``: ``max-correction`` is
+    ``max_correction``) -> as written; one key in both spellings is refused, since which of
+    them would win is a guess."""
+    written: dict[str, str] = {}
+    for key in data:
+        name = key.replace("-", "_")
+        if name in written:
+            raise error(f"{name} is given twice, as {written[name]!r} and as {key!r}; keep one",
+                        toml_key(path, text, key) if text is not None else Location(path))
+        written[name] = key
+    return written
 
 
 def did_you_mean(word: str, known) -> str:
@@ -160,7 +181,14 @@ def recorded(path: str) -> Snapshot | None:
     return found if isinstance(found, Snapshot) else None
 
 
+def named(path: str) -> str:
+    """A path as messages name it: ``-`` is standard input, ``<stdin>``."""
+    return STDIN_NAME if path == "-" else path
+
+
 def _read(path: str, limit: int, error: type[PostprocError], what: str) -> Snapshot:
+    if path == "-":  # a measurement, model or profile piped in: `cat trace.csv | postproc ballbar -`
+        return read_stdin(STDIN_NAME, limit, error, what)
     where = Location(path)
     try:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))

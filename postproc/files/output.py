@@ -52,6 +52,25 @@ def explain(exc: OSError, written: bool = False) -> str:
     return f"{exc.strerror or exc}; {outcome}"
 
 
+def temporary(location: Location, what: str) -> tuple[str, BinaryIO | None]:
+    """The folder for temporary files (TMPDIR, else /tmp...), and with ``what`` an anonymous
+    file made there to hold it. Python finds the folder by writing a file in it, which fails on a
+    full disk as any write does: that is the disk's error, said as such, not an internal one."""
+    held = what or "a temporary file"
+    remedy = "free some space there or set TMPDIR to a folder with room"
+    try:
+        folder = tempfile.gettempdir()
+    except OSError:  # "No usable temporary directory found": no folder took its test file
+        where = os.environ.get("TMPDIR") or "/tmp"
+        raise OutputError(f"cannot keep {held} in {where} (TMPDIR): no space left for it (no folder takes a "
+                          f"file: disk full, quota or file size limit); nothing was written; {remedy}",
+                          location) from None
+    try:
+        return folder, tempfile.TemporaryFile(prefix="postproc-") if what else None
+    except OSError as exc:
+        raise OutputError(f"cannot keep {held} in {folder} (TMPDIR): {explain(exc)}; {remedy}", location) from None
+
+
 @dataclass(frozen=True)
 class Destination:
     """Where an output goes and how: replaced atomically at ``path``, or written through."""
@@ -113,17 +132,19 @@ class Spool:
     """
 
     def __init__(self, given: str | None = STDOUT):
-        self.destination = STDOUT if given is KEEP else given  #: as given, for messages
+        self.destination = STDOUT if given is KEEP else given  #: as given
+        self.where = Location("<stdout>" if self.destination == STDOUT else self.destination)  #: for messages
         self.keep = given is KEEP
         if given is KEEP or given == STDOUT:
             self.target: Destination | None = None
             if given == STDOUT and (sys.stdout is None or getattr(sys.stdout, "buffer", None) is None):
                 raise OutputError("cannot write output: standard output is closed; nothing was written",
                                   Location("<stdout>"))
-            self.directory = tempfile.gettempdir()
+            self.directory = temporary(self.where, "")[0]
         else:
             self.target = destination(given)
-            self.directory = tempfile.gettempdir() if self.target.through else os.path.dirname(self.target.path)
+            self.directory = temporary(self.where, "")[0] if self.target.through else \
+                os.path.dirname(self.target.path)
         self.path: str | None = None
         fd = self._anonymous()
         if fd is None:
@@ -132,7 +153,7 @@ class Spool:
             try:
                 fd, self.path = tempfile.mkstemp(prefix=name, suffix=".tmp", dir=self.directory)
             except OSError as exc:
-                raise OutputError(f"cannot write output: {explain(exc)}", Location(self.destination)) from None
+                raise OutputError(f"cannot write output: {explain(exc)}", self.where) from None
         self.file: BinaryIO = os.fdopen(fd, "w+b")
         self._done = False
 
@@ -143,7 +164,7 @@ class Spool:
             return os.open(self.directory, os.O_TMPFILE | os.O_RDWR, 0o600)
         except OSError as exc:
             if exc.errno in (errno.ENOENT, errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOSPC, errno.ENOTDIR):
-                raise OutputError(f"cannot write output: {explain(exc)}", Location(self.destination)) from None
+                raise OutputError(f"cannot write output: {explain(exc)}", self.where) from None
             return None  # a file system without O_TMPFILE: a named temporary file instead
 
     def write(self, data: bytes) -> None:
@@ -151,7 +172,7 @@ class Spool:
             self.file.write(data)
         except OSError as exc:
             self.discard()
-            raise OutputError(f"cannot write output: {explain(exc)}", Location(self.destination)) from None
+            raise OutputError(f"cannot write output: {explain(exc)}", self.where) from None
 
     def value(self) -> bytes:
         """Everything written so far (a spool made with :data:`KEEP`)."""
@@ -159,8 +180,10 @@ class Spool:
         self.file.seek(0)
         return self.file.read()
 
-    def commit(self) -> None:
-        """Make the spool the output: give it the destination's name, or copy it out."""
+    def commit(self, new: bool = False) -> None:
+        """Make the spool the output: give it the destination's name, or copy it out. ``new``:
+        only as a new file; one standing at the destination, even one made since the run
+        began, is never replaced (FileExistsError, the spool discarded)."""
         if self.keep:
             return
         if self.target is None or self.target.through:
@@ -172,11 +195,19 @@ class Spool:
             if self.path is None:  # name the anonymous file beside the destination, then move it there
                 self._name()
             _keep_mode(self.path, self.target.path)
-            os.replace(self.path, self.target.path)
+            if new:
+                os.link(self.path, self.target.path)  # fails where any file stands: never over it
+                os.unlink(self.path)
+                self.path = None
+            else:
+                os.replace(self.path, self.target.path)
             self.file.close()
+        except FileExistsError:
+            self.discard()
+            raise
         except OSError as exc:
             self.discard()
-            raise OutputError(f"cannot write output: {explain(exc)}", Location(self.destination)) from None
+            raise OutputError(f"cannot write output: {explain(exc)}", self.where) from None
         self._done = True
 
     def _copy_out(self) -> None:
@@ -216,7 +247,7 @@ class Spool:
             raise
         except OSError as exc:
             self.discard()
-            raise OutputError(f"cannot write output: {explain(exc, written)}", Location(self.destination)) from None
+            raise OutputError(f"cannot write output: {explain(exc, written)}", self.where) from None
         self.discard()
 
     def _name(self) -> None:
@@ -244,11 +275,15 @@ class Spool:
             os.fsync(named.fileno())
 
     def discard(self) -> None:
+        """Drop the spool. Never raises: closing flushes what the buffer still holds, which on a
+        full disk fails again, and that must not hide the error being reported."""
         if self._done:
             return
         self._done = True
         try:
-            self.file.close()
+            self.file.close()  # the descriptor is released even when the flush fails
+        except OSError:
+            pass
         finally:
             if self.path is not None:
                 try:

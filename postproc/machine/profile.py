@@ -135,9 +135,9 @@ def load(path: str) -> MachineProfile:
 def from_mapping(data: dict[str, Any], origin: str = "<profile>", text: str | None = None) -> MachineProfile:
     """A profile from a TOML document; ``text``, the document as written, lets an error point at
     the key's line and column."""
-    from ..files.inputs import did_you_mean, toml_key
+    from ..files.inputs import did_you_mean, spellings, toml_key
 
-    written = {key.replace("-", "_"): key for key in data}
+    written = spellings(data, origin, text, OptionError)
 
     def at(name: str) -> Location:
         return toml_key(origin, text, written.get(name, name)) if text is not None else Location(origin)
@@ -150,7 +150,8 @@ def from_mapping(data: dict[str, Any], origin: str = "<profile>", text: str | No
             extra[key] = value
             continue
         if name not in _FIELDS:
-            raise OptionError(f"unknown key {key!r} in machine profile{did_you_mean(name, _FIELDS)}", at(name))
+            raise OptionError(f"unknown key {key!r} in machine profile{did_you_mean(name, [*_FIELDS, 'simulation'])}",
+                              at(name))
         values[name] = _checked(name, value, at(name))
     profile = MachineProfile(**values, extra=extra)
     bounds.max_correction(profile.max_correction, "max_correction =", at("max_correction"))

@@ -127,6 +127,16 @@ def arcs_text(traces: Sequence[BallbarTrace]) -> str:
     return "; ".join(f"{' and '.join(paths)} ({arc})" for arc, paths in by_arc.items())
 
 
+def more_evidence(traces: Sequence[BallbarTrace], *more: str) -> str:
+    """What to measure for a fit the traces do not determine, of what they lack: a longer arc
+    unless every trace goes round, the other direction unless each test has both; then ``more``."""
+    asks = [] if all(trace.full for trace in traces) else ["a longer arc (220 deg or the whole circle)"]
+    if any({traces[i].direction for i in group} != {"ccw", "cw"} for group in mounts(traces)):
+        asks.append("both directions")
+    asks += more
+    return ", ".join(asks[:-1]) + (" or " if len(asks) > 1 else "") + asks[-1]
+
+
 # -- the samples ------------------------------------------------------------------------------------
 
 
@@ -397,8 +407,8 @@ def _solve(matrix: np.ndarray, measured: np.ndarray, used: np.ndarray, every: tu
         involved = [every[i] for i in np.flatnonzero(np.any(np.abs(right[small]) > 0.1, axis=0))]
         model = tuple(name for name in involved if name in names) or tuple(involved)
         raise Inseparable(f"on {arcs_text(traces)}, {_names(involved)} cannot be told apart "
-                          f"({'from each other' if len(involved) > 1 else 'from the rest'}); measure a longer arc, "
-                          "or both directions", where, model)
+                          f"({'from each other' if len(involved) > 1 else 'from the rest'}); measure "
+                          f"{more_evidence(traces, 'tests about more centres')}", where, model)
     solution = right.T @ ((left.T @ measured[used]) / singular) / norms
     inverse = (right.T / singular**2) @ right / np.outer(norms, norms)
     return solution, inverse, singular
@@ -475,8 +485,8 @@ def require(result: JointFit, names: Sequence[str] | None = None, limit: float =
                        f"({effect * 1000:.2f} um)" for effect, name in worst)
     raise Undetermined(
         f"on {arcs_text(result.samples.traces)}, {listed} {'is' if len(worst) == 1 else 'are'} not determined: "
-        f"3 sigma of the error it models is above {limit * 1000:g} um; measure a longer arc (220 deg or the whole "
-        "circle), both directions, or a quieter trace", Location(result.samples.traces[0].path),
+        f"3 sigma of the error it models is above {limit * 1000:g} um; measure "
+        f"{more_evidence(result.samples.traces, 'a quieter trace')}", Location(result.samples.traces[0].path),
         tuple(name for _, name in worst))
 
 

@@ -89,23 +89,33 @@ class LabelIndex:
         return self._counts
 
 
+def _anonymous(name: str) -> BinaryIO:
+    """The anonymous temporary file a program is copied into; a full disk is said as such."""
+    from ..files.output import temporary
+
+    return temporary(Location(name), "a copy of the program")[1]
+
+
 class Source:
     """A program to read: a path, or ``-`` for standard input."""
 
     def __init__(self, path: str):
         self.name = STDIN_NAME if path == "-" else path
         self.path = path
-        self._file = tempfile.TemporaryFile(prefix="postproc-")  # anonymous: nothing to clean up after a kill
+        self._file = _anonymous(self.name)  # anonymous: nothing to clean up after a kill
         self.size = 0
         try:
             if path == "-":
                 self._copy_stream(sys.stdin.buffer if sys.stdin is not None else None)
             else:
                 self._copy_file(path)
+            self._keep(b"", flush=True)
         except BaseException:
-            self._file.close()
+            try:
+                self._file.close()
+            except OSError:  # the flush of what could not be kept fails again
+                pass
             raise
-        self._file.flush()
 
     @classmethod
     def from_text(cls, text: str | bytes, name: str = "<text>") -> "Source":
@@ -113,9 +123,8 @@ class Source:
         data = text.encode("utf-8", "surrogateescape") if isinstance(text, str) else text
         source = cls.__new__(cls)
         source.name = source.path = name
-        source._file = tempfile.TemporaryFile(prefix="postproc-")
-        source._file.write(data)
-        source._file.flush()
+        source._file = _anonymous(name)
+        source._keep(data, flush=True)
         source.size = len(data)
         return source
 
@@ -160,9 +169,11 @@ class Source:
             self._keep(chunk)
             self.size += len(chunk)
 
-    def _keep(self, chunk: bytes) -> None:
+    def _keep(self, chunk: bytes, flush: bool = False) -> None:
         try:
             self._file.write(chunk)
+            if flush:
+                self._file.flush()
         except OSError as exc:
             from ..files.output import explain
 
@@ -171,8 +182,7 @@ class Source:
 
     def _binary(self, head: bytes) -> ProgramError:
         """The error for a stream with a NUL byte, placed at it (after what was copied so far)."""
-        self._keep(head)
-        self._file.flush()
+        self._keep(head, flush=True)
         self.size += len(head)
         line, last = 1, b""
         for chunk in self.chunks():

@@ -117,7 +117,10 @@ BALLBAR = [
      "{f}: error: the header key 'radius_mm' is required"),
     ("radius-text", HEAD.replace("100", "abc").encode() + ROWS.encode(), "{f}:2: error: radius_mm = 'abc' is not a number"),
     ("radius-negative", HEAD.replace("100", "-5").encode() + ROWS.encode(), "{f}:2: error: radius_mm must be positive, not -5"),
-    ("direction", HEAD.replace("ccw", "left").encode() + ROWS.encode(), "{f}:3: error: direction = 'left': expected ccw or cw"),
+    ("direction", HEAD.replace("ccw", "left").encode() + ROWS.encode(),
+     "{f}:3: error: direction = 'left': expected ccw or cw (ccw: the G03 run, cw: the G02 run)"),
+    ("direction-as-g-code", HEAD.replace("ccw", "G03").encode() + ROWS.encode(),
+     "{f}:3: error: direction = 'G03': expected ccw or cw (ccw: the G03 run, cw: the G02 run)"),
     ("unknown-key", HEAD.replace("angle_deg", "# raduis_mm = 5\nangle_deg").encode() + ROWS.encode(),
      "{f}:4: error: unknown header key 'raduis_mm' (known: capture_arc_deg, center_x_mm, center_z_mm, centered, "
      "direction, feed_mm_min, measured, radius_mm, start_angle_deg; keys of your own start with x-)"),
@@ -130,9 +133,17 @@ BALLBAR = [
     ("text-value", (HEAD + "0,abc\n" + ROWS).encode(), "{f}:5: error: deviation_mm = 'abc' is not a finite number"),
     ("columns", (HEAD + "0,1,2\n" + ROWS).encode(), "{f}:5: error: 3 values where the header row has 2"),
     ("header-row", HEAD.replace("angle_deg,deviation_mm", "angle,deviation").encode() + ROWS.encode(),
-     "{f}:4: error: the CSV header row must be angle_deg,deviation_mm or deviation_mm, not 'angle,deviation'"),
+     "{f}:4: error: the CSV header row must be angle_deg,deviation_mm or deviation_mm, not 'angle,deviation'; an instrument's export laid out otherwise (its own columns, semicolons, "
+     "tabs, decimal commas, um) is converted by postproc import-trace"),
+    ("semicolons", HEAD.replace("angle_deg,deviation_mm", "angle_deg;deviation_mm").encode() + ROWS.encode(),
+     "{f}:4: error: the CSV header row must be angle_deg,deviation_mm or deviation_mm, not 'angle_deg;deviation_mm'; an instrument's export laid out otherwise (its own columns, semicolons, "
+     "tabs, decimal commas, um) is converted by postproc import-trace"),
+    ("decimal-comma-rows", (HEAD + "0;0,001\n" + ROWS).encode(),
+     "{f}:5: error: angle_deg = '0;0' is not a finite number; an instrument's export laid out otherwise (its own columns, semicolons, "
+     "tabs, decimal commas, um) is converted by postproc import-trace"),
     ("no-rows", HEAD.encode(), "{f}: error: the file has no data rows"),
-    ("duplicate-angle", (HEAD + ROWS + "360,0.002\n").encode(), "{f}:77: error: angle 360 deg (0 deg) again (first on line 5)"),
+    ("duplicate-angle", (HEAD + ROWS + "360,0.002\n").encode(), "{f}:77: error: angle 360 deg (0 deg) again (first on line 5): "
+     "a second lap or run in one file? give each run of the test as a file of its own"),
     ("implausible", (HEAD + "2.5,1.5\n" + ROWS).encode(),
      "{f}:5: error: deviation 1.5 mm is beyond 1 mm: not a plausible ballbar reading (micrometres written as "
      "millimetres?)"),

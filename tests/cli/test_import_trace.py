@@ -108,7 +108,8 @@ def test_columns_by_number_or_by_header_name_and_the_exports_angle_convention(ru
      "{f}: error: the trace covers 50 deg from 0 to 50 deg: a trace needs at least 90 deg of arc (a lathe's test "
      "in XZ runs about 220 deg)"),
     ("angle,dev\n0,0.001\n360,0.001\n" + "".join(f"{a},0.001\n" for a in range(2, 200, 2)), [],
-     "{f}:3:1: error: angle 360 deg again (first on line 2)"),
+     "{f}:3:1: error: angle 360 deg again (first on line 2): a second lap or run in one file? give each run of the "
+     "test as a file of its own"),
     ("just words\nand more words\n", [], "{f}: error: no rows of numbers in the file (numbers written 1,25 need "
      "--decimal-comma; cells separated otherwise than by tab, semicolon, comma or spaces need --delimiter)"),
     ("\x00\x01binary", [], "{f}: error: this is a binary file, not a measurement table"),
@@ -132,6 +133,41 @@ def test_options_that_cannot_hold_are_usage_errors(run, tmp_path, options, messa
                                  "ccw", *options)
     assert result.exit_code == 2 and not target.exists()
     assert message in result.stderr
+
+
+#: exports wider than the columns asked for: (header row, a row's cells from angle and deviation, options)
+_WIDE = {
+    "an index first": ("No,Angle,Dev", lambda i, a, d: f"{i},{a},{d}", []),
+    "a time and a temperature": ("time_s,angle,dev_mm,temp", lambda i, a, d: f"{i * 0.01:.2f},{a},{d},20.1", []),
+    "deviation in two units": ("Angle,Dev_mm,Dev_um", lambda i, a, d: f"{a},{d},{float(d) * 1000:.3f}", []),
+    "raw readings beside the angle": ("Angle,Dev", lambda i, a, d: f"{a},{d}", ["--start-angle", "0"]),
+    "no header row": (None, lambda i, a, d: f"{i};{a};{d}", []),
+}
+
+
+@pytest.mark.parametrize("case", sorted(_WIDE))
+def test_a_column_is_never_picked_by_its_place_when_the_rows_have_more(run, tmp_path, case):
+    """With more cells per row than the trace needs, which is the angle and which the deviation
+    is a guess (an index column read as the angle of a 1 deg export gives a plausible trace
+    turned by 1 deg): the user names them with --columns, and nothing is written until then."""
+    header, cells, options = _WIDE[case]
+    angles = np.arange(0.0, 360.0, 1.0)
+    rows = "".join(cells(i + 1, a, f"{d / 1000:.6f}") + "\n" for i, (a, d) in enumerate(zip(angles, shape(angles))))
+    result, source, target = imported(run, tmp_path, (header + "\n" if header else "") + rows, "--radius", "100",
+                                      "--direction", "ccw", *options)
+    assert (result.exit_code, result.stdout) == (2, "") and not target.exists()
+    width = len(cells(1, 0.0, "0").split(";" if header is None else ","))
+    assert f"{source} has {width} columns" in result.stderr and "--columns" in result.stderr, result.stderr
+
+
+def test_micrometres_declared_for_millimetres_are_refused(run, tmp_path):
+    """--unit um on an export in mm makes a trace of nanometres, which no ballbar reads."""
+    rows = "".join(f"{a},{d / 1000:.6f}\n" for a, d in zip(ARC, shape(ARC)))
+    result, source, target = imported(run, tmp_path, "angle,dev\n" + rows, "--radius", "100", "--direction", "cw",
+                                      "--unit", "um")
+    assert result.exit_code == 3 and not target.exists()
+    assert result.stderr.startswith(f"{source}: error: with --unit um every deviation is within 0.0")
+    assert "millimetres read as micrometres? leave out --unit um" in result.stderr
 
 
 def test_the_export_itself_is_never_overwritten(run, tmp_path):

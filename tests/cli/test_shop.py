@@ -129,3 +129,29 @@ def test_report_json_says_what_was_fitted(run, tmp_path):
     assert result.exit_code == 0, result.stderr
     (entry,) = json.loads(report.read_text())["compensators"]
     assert entry["plugin"] == "tool-offset" and "offset_mm" in json.dumps(entry)
+
+
+def test_a_batch_tells_each_programs_warnings_once_with_its_summary(run, tmp_path):
+    """Each warning of a batch's program came out twice (as it happened, and again with the
+    program's summary line), and a compensator that warns once per program was silent for the
+    programs after the first: each program's warnings now come once, just before its line."""
+    traces = tmp_path / "traces"
+    traces.mkdir()
+    for direction in ("ccw", "cw"):  # the half of each trace below the axis: the part lies outside its box
+        lines = (SAMPLES / "ballbar" / f"v40r-100-{direction}.csv").read_text().splitlines()
+        kept = [line for line in lines if line.startswith(("#", "angle")) or 180.0 <= float(line.split(",")[0]) <= 310.0]
+        (traces / f"{direction}.csv").write_text("\n".join(kept) + "\n")
+    programs = []
+    for name in ("a.nc", "b.nc", "c.nc"):
+        programs.append(tmp_path / name)
+        programs[-1].write_text((SAMPLES / "programs" / "hemishell.nc").read_text())
+    for jobs in ("1", "2"):
+        result = run("compensate", *map(str, programs), "--plugin", "parametric", "--ballbar",
+                     str(traces / "ccw.csv"), "--ballbar", str(traces / "cw.csv"), "--out-dir",
+                     str(tmp_path / f"out{jobs}"), "--jobs", jobs)
+        assert result.exit_code == 0, result.stderr
+        lines = result.stderr.splitlines()
+        for program in programs:
+            said = [line for line in lines if line.startswith(f"{program}: warning: parametric: the move on line 9")]
+            assert len(said) == 1, result.stderr
+            assert lines[lines.index(said[0]) + 1].startswith(f"{program}: ok -> ")

@@ -7,6 +7,10 @@ import json
 import subprocess
 import sys
 
+import pytest
+
+from postproc.compensate.compensator import Compensator, Option, parse_options
+from postproc.diagnostics import OptionError
 from support import REPO
 
 #: The engine: what reads, interprets, plans and writes programs. A plugin never needs it.
@@ -43,3 +47,36 @@ def test_piece_is_the_contracts_own():
 
     assert rewrite.Piece is compensator.Piece
     assert compensator.Piece.__module__ == "postproc.compensate.compensator"
+
+
+# ---------------------------------------------------------------------- options: one value per setting
+
+
+class _One(Compensator):
+    name = "one"
+    options = (Option("gain", float, 1.0), Option("mode", str, "a", choices=("a", "b")))
+
+
+class _Two(Compensator):
+    name = "two"
+    options = (Option("gain", float, 1.0),)
+
+
+@pytest.mark.parametrize("texts", [
+    ["gain=1", "gain=2"], ["one.gain=1", "one.gain=2"], ["mode=a", "one.gain=2", "mode=b"], ["gain=1", "gain=1.5"],
+])
+def test_one_setting_given_two_values_is_refused_whatever_the_order(texts):
+    """--option gain=1 --option gain=2 gave gain 2 without a word: which was meant is a guess."""
+    for ordered in (texts, texts[::-1]):
+        with pytest.raises(OptionError, match=r"is set twice, to two values"):
+            parse_options(ordered, [_One, _Two])
+
+
+@pytest.mark.parametrize("texts, expected", [
+    (["gain=1", "gain=1.0"], {"one": {"gain": 1.0}, "two": {"gain": 1.0}}),
+    (["gain=2", "one.gain=3"], {"one": {"gain": 3.0}, "two": {"gain": 2.0}}),
+    (["one.gain=3", "gain=2"], {"one": {"gain": 3.0}, "two": {"gain": 2.0}}),
+])
+def test_one_value_given_twice_or_a_compensators_own_over_the_general_is_taken(texts, expected):
+    """PLUGIN.KEY=VALUE is that compensator's whatever the order, as formats.md §8.1 scopes it."""
+    assert parse_options(texts, [_One, _Two]) == expected

@@ -57,6 +57,19 @@ def test_a_changed_or_foreign_model_is_refused(run, tmp_path):
     assert "not a postproc model (not JSON" in run("compensate", HEMISHELL, "--model", str(model)).stderr
 
 
+@pytest.mark.parametrize("ending", ["\n", "\r\n"])
+def test_a_model_saved_again_by_an_editor_with_a_byte_order_mark_reads_as_it_was(run, tmp_path, ending):
+    """Opened and saved in a Windows editor, a model gains a BOM (and perhaps CR LF): its content,
+    which the SHA-256 covers, is the same, and so is the compensation."""
+    model = tmp_path / "model.json"
+    run(*FIT, "-o", str(model))
+    plain = run("compensate", HEMISHELL, "--model", str(model))
+    model.write_bytes(b"\xef\xbb\xbf" + model.read_bytes().replace(b"\n", ending.encode()))
+    again = run("compensate", HEMISHELL, "--model", str(model))
+    assert again.exit_code == plain.exit_code == 0, again.stderr
+    assert again.stdout == plain.stdout
+
+
 def test_an_old_model_or_one_for_another_machine_warns(run, tmp_path):
     import datetime as dt
     import hashlib
@@ -278,3 +291,54 @@ def test_a_saved_parameter_within_its_bound_is_applied(parametric_model, name, v
                                 catch_exceptions=False)
     assert result.exit_code in (0, 4), result.stderr  # 4: a correction the run refuses, not the model
     assert "the saved model" not in result.stderr
+
+
+# ---------------------------------------------------------------------- what fit writes reads back
+
+def _saves(made, loads):
+    """A plugin object whose compensator's model() returns ``made()`` and whose load() is ``loads``."""
+    from postproc.compensate.hookspecs import hookimpl
+    from postproc.compensator import Compensator
+
+    cls = type("Saves", (Compensator,), {"name": "test-saves", "takes": ("ballbar",),
+                                         "fit": lambda self, measurements: None, "correct": lambda self, piece: None,
+                                         "model": lambda self: made(), "load": loads})
+
+    class Plugin:
+        @hookimpl
+        def postproc_compensators(self):
+            return [cls]
+
+    return Plugin()
+
+
+def _strict_load(self, model):
+    self.gain = float(model["gain"])  # a model of another shape: KeyError
+
+
+@pytest.mark.parametrize("made, loads, words", [
+    (lambda: {"gain": float("nan")}, None, "would not read back: Out of range float values are not JSON compliant"),
+    (lambda: {"gain": __import__("numpy").arange(3)}, None, "would not read back: Object of type ndarray"),
+    (lambda: {"gain": object()}, None, "would not read back: Object of type object"),
+    (lambda: [1.0, 2.0], None, "would not read back: 'model' must be an object, not a list"),
+    (lambda: {"gain": [1.0, float("inf")]}, None, "would not read back"),
+    (lambda: {"gain": "0.5"}, None, "a number written as a string"),
+    (lambda: {"inner_radius": -1.0}, None, "a radius must be positive"),
+    (lambda: {"scale": 2.0}, _strict_load, "load of its own model failed: KeyError: 'gain'"),
+])
+def test_fit_never_writes_a_model_that_compensate_would_refuse(run, tmp_path, made, loads, words):
+    """fit wrote a model whose content compensate --model refuses (a list for the model), or
+    failed with an internal error on what JSON cannot hold (NaN, an array): what fit writes is
+    read back and loaded back first, and a compensator whose model does not is named."""
+    from postproc.compensate import registry
+
+    plugin = _saves(made, loads or (lambda self, model: None))
+    registry.manager().register(plugin, name="saves-test-plugin")
+    try:
+        target = tmp_path / "model.json"
+        result = run("fit", "--plugin", "test-saves", "--ballbar", CCW, "-o", str(target))
+        assert result.exit_code == 5 and not target.exists(), result.stderr
+        assert result.stderr.startswith("postproc: error: plugin 'test-saves': ") and words in result.stderr, \
+            result.stderr
+    finally:
+        registry.manager().unregister(plugin)

@@ -304,6 +304,289 @@ def test_a_plugin_that_hangs_is_stopped_and_named(run, tmp_path):
         manager.unregister(plugin)
 
 
+# ---------------------------------------------------------------------- a shop reader that misbehaves
+
+def _trace_made(path, context, change):
+    """The built-in reader's trace of the sample, with ``change`` applied to it."""
+    import dataclasses
+
+    from postproc.measure.readers.ballbar import read_ballbar
+
+    trace = read_ballbar(CCW, context.reporter)
+    return dataclasses.replace(trace, **change(trace))
+
+
+def _probe_made(path, context, change):
+    import dataclasses
+
+    from postproc.measure.readers.probe import read_probe
+
+    points = read_probe(str(SAMPLES / "probe" / "hemishell-pass1.csv"))
+    return dataclasses.replace(points, **change(points))
+
+
+def _raises(*args):
+    raise KeyError("Deviation")
+
+
+#: (kind, accepts, read, words of the message): every way a reader can fail but refusing the file
+_FAULTY_READERS = {
+    "accepts raises": ("ballbar", _raises, None, "reader 'faulty': accepts failed: KeyError: 'Deviation'"),
+    "read raises": ("ballbar", None, _raises, "reader 'faulty': read failed: KeyError: 'Deviation'"),
+    "nothing read": ("ballbar", None, lambda path, context: None, "read returned NoneType, not a BallbarTrace"),
+    "another kind": ("ballbar", None, lambda p, c: _probe_made(p, c, lambda t: {}), "returned ProbeFile, not a BallbarTrace"),
+    "a NaN deviation": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {
+        "deviations": np.where(np.arange(len(t.angles)) == 3, np.nan, t.deviations)}), "deviations with values that are not finite"),
+    "fewer deviations": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {"deviations": t.deviations[:-5]}),
+                         "deviations of shape (715,)"),
+    "a table of deviations": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {
+        "deviations": np.column_stack([t.deviations, t.deviations])}), "deviations of shape (720, 2)"),
+    "angles in degrees out of order": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {
+        "angles": t.angles[::-1].copy(), "deviations": t.deviations[::-1].copy()}), "angles that are not increasing"),
+    "angles in radians beyond 360": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {"angles": t.angles + 360.0}),
+                                     "angles that are not increasing within [0, 360)"),
+    "a radius of nan": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {"radius": float("nan")}),
+                        "radius = nan, not a positive number"),
+    "a direction of its own": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {"direction": "G03"}),
+                               "direction 'G03', not 'ccw' or 'cw'"),
+    "rows of another trace": ("ballbar", None, lambda p, c: _trace_made(p, c, lambda t: {"rows": t.rows[:10]}),
+                              "read returned 10 rows for 720 samples"),
+    "probe: a centre of three coordinates": ("probe", None, lambda p, c: _probe_made(p, c, lambda t: {
+        "centres": np.column_stack([t.centres, t.centres[:, :1]])}), "centres of shape"),
+    "probe: an infinite approach": ("probe", None, lambda p, c: _probe_made(p, c, lambda t: {
+        "approach": np.where(np.arange(len(t.lines))[:, None] == 0, np.inf, t.approach)}), "approach with values that are not finite"),
+    "probe: no stylus": ("probe", None, lambda p, c: _probe_made(p, c, lambda t: {"stylus_radius": None}),
+                         "stylus_radius = None, not a positive number"),
+    "probe: lines of fewer touches": ("probe", None, lambda p, c: _probe_made(p, c, lambda t: {"lines": t.lines[:-1]}),
+                                      "lines for"),
+}
+
+
+def test_what_a_shop_reader_prints_goes_to_stderr_never_into_the_output(run, registered, tmp_path):
+    from postproc.measure.readers.ballbar import read_ballbar
+    from postproc.measure.readers.registry import MeasurementReader
+
+    def read(path, context):
+        print("G00 X0. Z0. (read!)")
+        return read_ballbar(CCW, context.reporter)
+
+    class Plugin:
+        @hookspecs.hookimpl
+        def postproc_measurement_readers(self):
+            return [MeasurementReader("ballbar", "chatty", lambda path: path.endswith(".shop"), read)]
+
+    registered(Plugin())
+    export = tmp_path / "export.shop"
+    export.write_text("whatever\n")
+    result = run("compensate", HEMISHELL, "--plugin", "parametric", "--ballbar", str(export), "--ballbar", CW)
+    assert result.exit_code == 0, result.stderr
+    assert "read!" not in result.stdout and "G00 X0. Z0. (read!)" in result.stderr
+
+
+@pytest.mark.parametrize("fault", sorted(_FAULTY_READERS))
+def test_a_shop_reader_that_fails_or_makes_nonsense_is_named_with_the_file(run, registered, tmp_path, fault):
+    """Whatever a shop's reader does wrong (raises, returns nothing, another type, arrays of other
+    lengths, values that are not finite, unsorted angles), the run stops naming its plugin, the
+    reader and the file (exit 5): not a compensator's fault, not an internal error, and nothing
+    written."""
+    from postproc.measure.readers.registry import MeasurementReader
+
+    kind, accepts, read, words = _FAULTY_READERS[fault]
+
+    class Plugin:
+        @hookspecs.hookimpl
+        def postproc_measurement_readers(self):
+            return [MeasurementReader(kind, "faulty", accepts or (lambda path: path.endswith(".shop")),
+                                      read or (lambda path, context: None))]
+
+    registered(Plugin())
+    export = tmp_path / "export.shop"
+    export.write_text("whatever the instrument writes\n")
+    target = tmp_path / "out.nc"
+    measurements = (["--plugin", "parametric", "--ballbar", str(export), "--ballbar", CW] if kind == "ballbar" else
+                    ["--plugin", "omp-feedback", "--probe", str(export)])
+    result = run("compensate", HEMISHELL, *measurements, "-o", str(target))
+    assert result.exit_code == 5, result.stderr
+    assert result.stderr.startswith(f"{export}: error: plugin 'reader-order-0-0': "), result.stderr
+    assert words in result.stderr and "internal error" not in result.stderr
+    assert not target.exists()
+
+
+class _HookFails:
+    @hookspecs.hookimpl
+    def postproc_compensators(self):
+        raise ImportError("no module named 'shoplib'")
+
+
+class _Duplicate:
+    @hookspecs.hookimpl
+    def postproc_compensators(self):
+        class Clash(_Raises):
+            name = "ballbar-inverse"
+
+        return [Clash]
+
+
+class _NotAName:
+    @hookspecs.hookimpl
+    def postproc_compensators(self):
+        class Numbered(_Raises):
+            name = 42
+
+        return [Numbered]
+
+
+@pytest.mark.parametrize("plugin, words", [(_HookFails(), "postproc_compensators failed: ImportError: no module named 'shoplib'"),
+                                           (_Duplicate(), "two plugins provide a compensator named 'ballbar-inverse' "
+                                                          "(this one and 'ballbar-inverse')"),
+                                           (_NotAName(), "not a named Compensator class")])
+def test_a_plugin_whose_compensators_cannot_be_listed_is_named(run, registered, plugin, words):
+    registered(plugin)
+    result = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", CCW,
+                 "--option", "radius-mapping=relative")
+    assert result.exit_code == 5 and result.stdout == ""
+    assert result.stderr.startswith("postproc: error: plugin 'reader-order-0-0': ") and words in result.stderr
+
+
+def _compensator(name: str = "test-shop", **members):
+    """A plugin object providing one compensator built from ``members`` (fit does nothing)."""
+    cls = type("Shop", (_Raises,), {"name": name, "correct": lambda self, piece: None, **members})
+
+    class Plugin:
+        @hookspecs.hookimpl
+        def postproc_compensators(self):
+            return [cls]
+
+    return Plugin()
+
+
+def _exits(self, measurements):
+    raise SystemExit(0)
+
+
+@pytest.mark.parametrize("members, words", [
+    ({"fit": _exits}, "fit called sys.exit(0)"),
+    ({"correct": lambda self, piece: np.array([["a", "b"]] * len(piece.t))}, "returned a correction that is not numbers"),
+    ({"prologue": lambda self, inch: "G10 P1 U0.01 W0."}, "prologue returned 'G10 P1 U0.01 W0.', not a list of blocks"),
+    ({"prologue": lambda self, inch: [None]}, "prologue returned [None], not a list of blocks"),
+])
+def test_a_compensator_that_exits_or_returns_what_no_compensator_returns_is_named(run, registered, tmp_path, members,
+                                                                                   words):
+    """sys.exit(0) in a plugin ended the run with exit 0 and nothing written; an array of text was
+    an internal error; a string for the list of opening blocks was read letter by letter."""
+    registered(_compensator(**members))
+    target = tmp_path / "out.nc"
+    result = run("compensate", HEMISHELL, "--plugin", "test-shop", "-o", str(target))
+    assert result.exit_code == 5 and not target.exists()
+    assert f"plugin 'test-shop': {words}" in result.stderr, result.stderr
+
+
+def _refuses(kind):
+    def correct(self, piece):
+        from postproc import diagnostics
+
+        raise getattr(diagnostics, kind)(f"test-shop: the move on line {piece.move.line} is beyond what was measured")
+
+    return correct
+
+
+@pytest.mark.parametrize("kind, code", [("OptionError", 3), ("SafetyError", 4), ("MeasurementError", 3)])
+def test_a_compensators_refusal_of_a_move_names_the_program(run, registered, tmp_path, kind, code):
+    """'postproc: error: ballbar-inverse: the arc of line 10 ...' named a line of no file: a
+    compensator knows the move's line, the host the program's name, and puts them together."""
+    registered(_compensator(correct=_refuses(kind)))
+    program = tmp_path / "part.nc"
+    program.write_text(open(HEMISHELL).read())
+    result = run("compensate", str(program), "--plugin", "test-shop")
+    assert result.exit_code == code
+    assert result.stderr.startswith(f"{program}: error: test-shop: the move on line "), result.stderr
+
+
+def test_a_compensators_warning_about_a_move_names_the_program_in_a_batch(run, registered, tmp_path):
+    """'postproc: warning: parametric: the move on line 87 leaves the box...' said which line of
+    which program? In a batch, none: a warning that names no place, while a program is being
+    compensated, is about that program."""
+    def correct(self, piece):
+        self.context.reporter.warn(f"test-shop: the move on line {piece.move.line} is held")
+
+    registered(_compensator(correct=correct))
+    programs = []
+    for name in ("a.nc", "b.nc"):
+        programs.append(tmp_path / name)
+        programs[-1].write_text(open(HEMISHELL).read())
+    result = run("compensate", *map(str, programs), "--plugin", "test-shop", "--out-dir", str(tmp_path / "out"))
+    assert result.exit_code == 0, result.stderr
+    for program in programs:
+        assert f"{program}: warning: test-shop: the move on line 9 is held" in result.stderr, result.stderr
+    assert "postproc: warning: test-shop" not in result.stderr
+
+
+def test_the_built_in_radius_refusal_names_the_program(run):
+    result = run("compensate", HEMISHELL, "--plugin", "ballbar-inverse", "--ballbar", CCW)
+    assert result.exit_code == 3
+    assert result.stderr.startswith(f"{HEMISHELL}: error: ballbar-inverse: the arc of line 10 has radius"), result.stderr
+
+
+def test_what_a_compensator_prints_goes_to_stderr_never_into_the_program(run, registered):
+    def fit(self, measurements):
+        print("G00 X0. Z0. (fitted!)")
+
+    registered(_compensator(fit=fit))
+    result = run("compensate", HEMISHELL, "--plugin", "test-shop")
+    assert result.exit_code == 0, result.stderr
+    assert "fitted!" not in result.stdout and result.stdout.startswith("%\n")
+    assert "G00 X0. Z0. (fitted!)" in result.stderr
+
+
+@pytest.mark.parametrize("block, why", [
+    ("G28 U0.", "moves the machine"), ("G00 X50. Z5.", "moves the machine"), ("G91", "changes the modal state"),
+    ("G20", "changes the modal state"), ("M03 S500", "changes the modal state"), ("T0202", "changes the modal state"),
+    ("G50 X100. Z50.", "is not a G10 data setting"), ("G54", "is not a G10 data setting"),
+    ("G04 X1.", "is not a G10 data setting"), ("G10 L50", "is not a G10 data setting"),
+    ("#500 = 1.", "is a macro statement"), ("G11", "is not a G10 data setting"),
+])
+def test_an_opening_block_that_would_change_how_the_program_runs_is_refused(run, registered, tmp_path, block, why):
+    """A compensator's opening blocks go in before the program's first move: anything but data
+    (a move, G91, other units, a new coordinate system, a tool call, parameter input, a macro
+    variable the program may read) would change the whole program behind the user's back."""
+    registered(_compensator(prologue=lambda self, inch: [block]))
+    target = tmp_path / "out.nc"
+    result = run("compensate", HEMISHELL, "--plugin", "test-shop", "-o", str(target))
+    assert result.exit_code == 5 and not target.exists()
+    assert f"plugin 'test-shop': its opening block {block!r} {why}" in result.stderr, result.stderr
+
+
+@pytest.mark.parametrize("blocks", [["G10 P1 U0.01 W-0.004"], ["(WEAR SET BY SHOP)", "G10 P2 U0. W0.002"]])
+def test_data_settings_and_comments_open_the_program(run, registered, blocks):
+    registered(_compensator(prologue=lambda self, inch: blocks))
+    result = run("compensate", HEMISHELL, "--plugin", "test-shop")
+    assert result.exit_code == 0, result.stderr
+    assert all(f"\n{block}\n" in result.stdout for block in blocks)
+
+
+def _gain(key="gain"):
+    from postproc.compensator import Option
+
+    return Option(key, float, 1.0)
+
+
+@pytest.mark.parametrize("name, options, words", [
+    ("shop bad", lambda: (), "a compensator named 'shop bad': a name is lower-case letters"),
+    ("shop.bad", lambda: (), "a compensator named 'shop.bad'"),
+    ("Shop", lambda: (), "a compensator named 'Shop'"),
+    ("test-shop", lambda: (object(),), "declares an option None"),
+    ("test-shop", lambda: (_gain("gain=1"),), "declares an option 'gain=1'"),
+    ("test-shop", lambda: (_gain(), _gain()), "declares the option 'gain' twice"),
+])
+def test_a_compensator_the_command_line_cannot_name_is_refused(run, registered, name, options, words):
+    """A name with a space or a dot, or two options of one key, cannot be spelt in --plugin NAME and
+    --option NAME.KEY=VALUE: refused when the compensators are listed, naming the plugin."""
+    registered(_compensator(name, options=options()))
+    result = run("compensate", HEMISHELL, "--plugin", "parametric", "--ballbar", CCW, "--ballbar", CW)
+    assert result.exit_code == 5 and result.stdout == ""
+    assert "plugin 'reader-order-0-0': " in result.stderr and words in result.stderr, result.stderr
+
+
 # ---------------------------------------------------------------------- loading only what a run selects
 
 

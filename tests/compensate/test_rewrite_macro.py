@@ -202,7 +202,7 @@ def test_the_python_api_takes_the_choice_and_refuses_another_word():
     import postproc
     from postproc.diagnostics import OptionError
 
-    with pytest.raises(OptionError, match="--macro-values guess: expected refuse, keep or numbers"):
+    with pytest.raises(OptionError, match="macro_values='guess': expected refuse, keep or numbers"):
         postproc.Pipeline(plugins=["parametric"], ballbar=[CCW, CW], macro_values="guess")
     kept = postproc.compensate_text(FLANGE, plugins=["parametric"], ballbar=[CCW, CW], options=["extrapolate=true"],
                                     macro_values="keep")

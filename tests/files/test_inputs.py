@@ -132,3 +132,94 @@ def test_a_program_changed_while_it_is_compensated_does_not_matter(tmp_path):
         path.write_text("G00 X1.\n")
         assert source.read_bytes() == HEMISHELL.read_bytes()
         assert "".join(source.lines()).encode() == HEMISHELL.read_bytes()
+
+
+@pytest.mark.parametrize("command, option, source", [
+    (["profile", "show"], "--machine", MACHINE),
+    (["budget"], None, SAMPLES / "budget" / "v40r-budget.toml"),
+])
+def test_a_toml_file_saved_with_a_byte_order_mark_reads_as_without_it(run, tmp_path, command, option, source):
+    """Windows editors save UTF-8 with a byte order mark, which tomllib calls 'Invalid statement'
+    at line 1: every TOML file postproc reads (profile, project file, budget) goes through one
+    reader, which drops it."""
+    marked = tmp_path / source.name
+    marked.write_bytes(b"\xef\xbb\xbf" + source.read_bytes())
+    plain = run(*command, *([option] if option else []), str(source))
+    result = run(*command, *([option] if option else []), str(marked))
+    assert (result.exit_code, result.stderr) == (0, ""), result.stderr
+    assert result.stdout == plain.stdout.replace(str(source), str(marked))
+    document, text = inputs.read_toml(str(marked), 1 << 20, MeasurementError, "a test file")
+    assert not text.startswith("\ufeff") and document == inputs.read_toml(str(source), 1 << 20, MeasurementError, "")[0]
+
+
+def test_a_project_file_saved_with_a_byte_order_mark_is_read(run, tmp_path, monkeypatch):
+    (tmp_path / "postproc.toml").write_bytes(b"\xef\xbb\xbftolerance = 0.002\n")
+    monkeypatch.chdir(tmp_path)
+    result = run("compensate", str(HEMISHELL))
+    assert result.exit_code == 0 and "project file: --tolerance from it" in result.stderr, result.stderr
+
+
+@pytest.mark.parametrize("name, value, other", [("max_correction", "0.05", "0.08"), ("macro_values", '"keep"', '"refuse"')])
+def test_a_project_key_in_both_its_spellings_is_refused(run, tmp_path, monkeypatch, name, value, other):
+    (tmp_path / "postproc.toml").write_text(f"{name.replace('_', '-')} = {value}\n{name} = {other}\n")
+    monkeypatch.chdir(tmp_path)
+    result = run("check", str(HEMISHELL))
+    assert (result.exit_code, result.stdout) == (3, "")
+    assert f"postproc.toml:2:1: error: {name} is given twice" in result.stderr, result.stderr
+
+
+PROBE = SAMPLES / "probe" / "hemishell-pass1.csv"
+CALIBRATION = SAMPLES / "probe" / "artifact-calibration.csv"
+
+
+def _model(tmp_path) -> str:
+    model = tmp_path / "model.json"
+    subprocess.run([*COMMAND, "fit", "--plugin", "parametric", "--ballbar", str(CCW), "--ballbar", str(CW), "-o",
+                    str(model)], check=True, capture_output=True)
+    return str(model)
+
+
+#: (the command with {} where the file goes, the file piped): every kind of file a command reads
+_PIPED = {
+    "a trace to ballbar": (["ballbar", "{}", "--json"], CCW),
+    "a trace to compensate": (["compensate", str(HEMISHELL), "--plugin", "parametric", "--ballbar", "{}",
+                               "--ballbar", str(CW)], CCW),
+    "probe points": (["compensate", str(HEMISHELL), "--plugin", "omp-feedback", "--probe", "{}"], PROBE),
+    "a calibration": (["compensate", str(HEMISHELL), "--plugin", "omp-feedback", "--probe", str(PROBE),
+                       "--calibration", "{}"], CALIBRATION),
+    "a machine profile": (["profile", "show", "--machine", "{}"], MACHINE),
+    "a model": (["compensate", str(HEMISHELL), "--model", "{}"], None),
+}
+
+
+@pytest.mark.parametrize("case", sorted(_PIPED))
+def test_any_file_a_command_reads_may_be_piped_in_as_dash(tmp_path, case):
+    """`--ballbar -` read a file named '-' ("-: cannot read the file: No such file or directory"):
+    every file a command reads is standard input when given as -, and gives what the file gives."""
+    arguments, source = _PIPED[case]
+    source = source or _model(tmp_path)
+    as_file = subprocess.run([*COMMAND, *(str(source) if a == "{}" else a for a in arguments)], capture_output=True)
+    with open(source, "rb") as piped:
+        as_pipe = subprocess.run([*COMMAND, *("-" if a == "{}" else a for a in arguments)], stdin=piped,
+                                 capture_output=True)
+    assert as_file.returncode == as_pipe.returncode == 0, as_pipe.stderr
+    assert _body(as_pipe.stdout.decode().replace(str(source), "-").replace(os.path.basename(source).upper(), "-")) \
+        == _body(as_file.stdout.decode().replace(str(source), "-").replace(os.path.basename(source).upper(), "-"))
+
+
+@pytest.mark.parametrize("arguments", [
+    ["compensate", "--plugin", "parametric", "--ballbar", "-", "--ballbar", str(CW)],  # the program is stdin too
+    ["ballbar", "-", "-"],
+    ["compensate", str(HEMISHELL), "--plugin", "omp-feedback", "--probe", "-", "--calibration", "-"],
+])
+def test_standard_input_named_twice_is_refused(arguments):
+    with open(CCW, "rb") as piped:
+        result = subprocess.run([*COMMAND, *arguments], stdin=piped, capture_output=True, text=True)
+    assert (result.returncode, result.stdout) == (2, "")
+    assert "standard input (-) is given 2 times" in result.stderr, result.stderr
+
+
+def test_a_bad_file_piped_in_is_named_stdin():
+    result = subprocess.run([*COMMAND, "ballbar", "-"], input="angle,deviation\n0,1\n", capture_output=True, text=True)
+    assert result.returncode == 3
+    assert result.stderr.startswith("<stdin>:1: error: the first line must be '# postproc ballbar 1'"), result.stderr

@@ -267,3 +267,55 @@ def test_the_python_api_refuses_an_output_that_is_its_input(part):
     with pytest.raises(UsageError, match="it would be destroyed"):
         postproc.Pipeline().compensate_file(str(part), str(part))
     assert part.read_bytes() == HEMISHELL.read_bytes()
+
+
+def _size_limited(limit: int):
+    """For a child process: files it writes may not grow beyond ``limit`` bytes, as on a disk
+    that is full (writes fail with EFBIG; SIGXFSZ ignored, as a shell's ulimit -f leaves it)."""
+    import resource
+    import signal
+
+    def apply():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    return apply
+
+
+#: every command that writes a file with -o (or its FILE): (arguments, the name it writes)
+_WRITERS = {
+    "compensate": (["compensate", str(HEMISHELL), *TRACES, "-o"], "out.nc"),
+    "path": (["path", str(HEMISHELL), "-o"], "path.csv"),
+    "fit": (["fit", *TRACES, "-o"], "model.json"),
+    "report": (["report", str(HEMISHELL), *TRACES, "-o"], "report.html"),
+    "ballbar --plot": (["ballbar", str(CCW), str(CW), "--plot"], "plot.svg"),
+    "import-trace": (["import-trace", str(CCW), "--radius", "100", "--direction", "ccw", "--columns", "1,2", "-o"],
+                     "trace.csv"),
+    "probe-program": (["probe-program", str(HEMISHELL), "-o"], "probe.nc"),
+    "simulate ballbar": (["simulate", "ballbar", "--direction", "cw", "-o"], "cw.csv"),
+    "profile init": (["profile", "init"], "lathe.toml"),
+}
+
+
+@pytest.mark.parametrize("limit", [0, 100])
+@pytest.mark.parametrize("command", sorted(_WRITERS))
+def test_a_full_disk_is_a_clear_error_and_leaves_nothing_whatever_the_command(tmp_path, command, limit):
+    """A write that fails for want of space was an internal error (exit 5) where the failing
+    flush came again when the spool was dropped, or where Python looked for its temporary folder
+    (by writing a file there) and the program's copy was flushed; profile init left an empty
+    profile: every command says the disk is full (exit 3), with nothing written, and leaves no
+    file behind."""
+    arguments, name = _WRITERS[command]
+    folder = tmp_path / "out"
+    folder.mkdir()
+    # no bytecode written: Python writes a .pyc cut short at the limit and reads it back broken
+    result = subprocess.run([*COMMAND, *arguments, str(folder / name)], capture_output=True, text=True,
+                            cwd=tmp_path, preexec_fn=_size_limited(limit), timeout=300,
+                            env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+    assert result.returncode == 3, result.stderr
+    assert "internal error" not in result.stderr and "Traceback" not in result.stderr
+    # a command that reads a program keeps a copy of it in TMPDIR first: on one disk, that fails first
+    said = (f"{folder / name}: error: cannot write output: no space left for it",
+            f"{HEMISHELL}: error: cannot keep a copy of the program in ")
+    assert result.stderr.startswith(said) and "no space left for it" in result.stderr, result.stderr
+    assert result.stderr.count("error:") == 1 and list(folder.iterdir()) == []

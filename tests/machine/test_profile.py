@@ -159,3 +159,55 @@ def test_the_nose_radius_remedy_the_refusal_names_is_a_profile_the_command_line_
     profile.write_text("nose_radius_mm = -0.4\n")
     negative = run("check", str(program), "--machine", str(profile))
     assert negative.exit_code == 3 and "nose_radius_mm must be a number, 0 or more" in negative.stderr
+
+
+#: every profile key that has two spellings (``max_correction`` and ``max-correction``)
+_TWO_SPELLINGS = sorted(name for name in dataclasses.asdict(DEFAULT) if "_" in name
+                        and name not in ("extra", "source", "source_sha256"))
+
+
+@pytest.mark.parametrize("name", _TWO_SPELLINGS)
+def test_a_key_in_both_its_spellings_is_refused_at_the_second(run, tmp_path, name):
+    """``max-correction = 0.05`` then ``max_correction = 0.08`` read as 0.08 without a word: which
+    spelling wins is a guess, whichever key it is."""
+    value = tomllib.loads(to_toml(DEFAULT)).get(name)
+    if value is None:  # unset by default: any valid value will do
+        value = {"x_limits": [0.0, 100.0], "z_limits": [-100.0, 0.0], "tolerance": 0.002,
+                 "calculator_input": True}[name]
+    written = "\n".join(f"{key} = {_toml(value)}" for key in (name.replace("_", "-"), name)) + "\n"
+    machine = tmp_path / "m.toml"
+    machine.write_text(written)
+    result = run("profile", "show", "--machine", str(machine))
+    assert (result.exit_code, result.stdout) == (3, "")
+    assert result.stderr.startswith(f"{machine}:2:1: error: {name} is given twice, as "
+                                    f"'{name.replace('_', '-')}' and as '{name}'; keep one"), result.stderr
+
+
+def _toml(value) -> str:
+    return toml_string(value) if isinstance(value, str) else str(value).lower() if isinstance(value, bool) else str(value)
+
+
+@pytest.mark.parametrize("text, position, meant", [
+    ("[simulaton]\nseed = 1\n", "2:2", "simulation"),
+    ("[[simulatoin.term]]\naxis = 'x'\n", "2:3", "simulation"),
+    ("[ x_limit ]\nlow = 0\n", "2:3", "x_limits"),
+])
+def test_a_misspelt_table_is_named_where_its_header_is_with_the_key_meant(run, tmp_path, text, position, meant):
+    machine = tmp_path / "m.toml"
+    machine.write_text('name = "lathe"\n' + text)
+    result = run("profile", "show", "--machine", str(machine))
+    assert result.exit_code == 3
+    assert result.stderr.startswith(f"{machine}:{position}: error: unknown key "), result.stderr
+    assert f"did you mean '{meant}'?" in result.stderr
+
+
+@pytest.mark.parametrize("text", ['bogus = 1\n', 'name = "lathe"\n[simulation.x]\nscalin = 1e-5\n',
+                                  '[simulation]\nseed = "one"\n'])
+def test_profile_show_checks_the_whole_profile_before_it_prints_anything(run, tmp_path, text):
+    """The comment lines went out before the profile was read, so a bad profile left them on
+    stdout with exit 3; and a [simulation] table, which is not printed, was not checked at all."""
+    machine = tmp_path / "m.toml"
+    machine.write_text(text)
+    result = run("profile", "show", "--machine", str(machine))
+    assert (result.exit_code, result.stdout) == (3, "")
+    assert result.stderr.startswith(f"{machine}"), result.stderr

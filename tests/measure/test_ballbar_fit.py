@@ -180,3 +180,28 @@ def test_uncertainty_is_honest_over_many_lathes():
     scores = np.abs(np.array(scores))
     assert np.mean(scores > 3.0) < 0.02
     assert 0.5 < np.median(scores) < 1.0  # a standard normal's is 0.67
+
+
+@pytest.mark.parametrize("directions, start, span", [(("ccw", "cw"), 20.0, 100.0), (("ccw",), 20.0, 100.0),
+                                                     (("cw",), -75.0, 150.0), (("ccw", "cw"), 0.0, 359.5)])
+def test_the_remedy_of_an_undetermined_fit_asks_only_for_what_the_traces_lack(directions, start, span):
+    """'measure both directions' was asked of traces of both directions, and 'a longer arc' of
+    whole circles: the remedy names what is missing."""
+    rng = np.random.default_rng(3)
+    angles = np.arange(start, start + span + 0.01, 0.5)
+    traces = [make_trace(f"{d}.csv", 100.0, d, angles, reading(angles, d, 100.0, (0.0, 0.0))
+                         + rng.normal(0.0, 0.0004, angles.size)) for d in directions]
+    asked = ballbar_fit.more_evidence(traces, "a quieter trace")
+    assert ("both directions" in asked) == (len(directions) == 1)
+    assert ("a longer arc" in asked) == (span < 359.0)
+    assert asked.endswith("a quieter trace")
+    samples = ballbar_fit.Samples.of(traces)
+    try:
+        result = ballbar_fit.fit(samples, ballbar_fit.machine_errors(samples, model_names(traces)))
+        ballbar_fit.require(result)
+    except (ballbar_fit.Inseparable, ballbar_fit.Undetermined) as refused:
+        assert span < 359.0
+        assert ("both directions" in refused.message) == (len(directions) == 1), refused.message
+        assert "a longer arc" in refused.message, refused.message
+    else:
+        assert span > 359.0  # a whole circle determines the model; no partial arc of these does

@@ -102,3 +102,25 @@ def test_a_calibration_in_another_unit_or_as_diameters_names_the_cause(tmp_path,
     path.write_text("\n".join(header + rows) + "\n")
     error = _one_error(_compensate("omp-feedback", str(PROBE), "--calibration", str(path)), str(path))
     assert "off the artifact's surface" in error and cause in error
+
+
+@settings(max_examples=10, deadline=None)
+@given(plugin=st.sampled_from(["omp-feedback", "tool-offset"]),
+       repeatability=st.floats(0.1001, 1e4, allow_nan=False) | st.sampled_from([3.0, 2.0, 0.5]))
+def test_a_repeatability_no_probe_has_is_refused_at_its_line(tmp_path_factory, plugin, repeatability):
+    """repeatability_mm = 3 (3 um written in mm) was taken: as the floor of the outlier screening
+    it called no touch an outlier, and the nub at the pole drove the correction, with exit 0."""
+    header = [line if not line.startswith("# repeatability_mm") else f"# repeatability_mm = {repeatability!r}"
+              for line in HEADER]
+    path = _written(tmp_path_factory, ROWS, header)
+    line = next(number for number, text in enumerate(header, 1) if text.startswith("# repeatability_mm"))
+    error = _one_error(_compensate(plugin, path), path)
+    assert error.startswith(f"{path}:{line}: error: repeatability_mm = {repeatability!r} is above 0.1: ")
+    assert "micrometres written as millimetres?" in error
+
+
+@pytest.mark.parametrize("repeatability", ["0.0005", "0.003", "0.1"])
+def test_a_repeatability_a_probe_may_have_is_read(tmp_path_factory, repeatability):
+    header = [line if not line.startswith("# repeatability_mm") else f"# repeatability_mm = {repeatability}"
+              for line in HEADER]
+    assert read_probe(_written(tmp_path_factory, ROWS, header)).repeatability == float(repeatability)

@@ -152,6 +152,10 @@ def raw_samples(readings: np.ndarray, start: float, capture: float, cw: bool, av
     return np.mod(angles, 360.0), readings
 
 
+#: what an angle given twice most often means, for the messages that refuse it
+REPEATED = "a second lap or run in one file? give each run of the test as a file of its own"
+
+
 def repeated_angle(angles: np.ndarray) -> tuple[int, int] | None:
     """The first sample whose angle (modulo 360, to 1e-9 deg) an earlier one has: (it, the earlier)."""
     seen: dict[float, int] = {}
@@ -167,7 +171,7 @@ def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6
     """Read and process a trace in either form; refuses every problem with its position."""
     table = read_table(path, MAGIC, KEYS, [PROCESSED, RAW])
     radius = table.number("radius_mm", positive=True, required=True)
-    direction = table.choice("direction", ("ccw", "cw"), required=True)
+    direction = table.choice("direction", ("ccw", "cw"), required=True, meaning="ccw: the G03 run, cw: the G02 run")
     centre = (table.number("center_x_mm", 0.0), table.number("center_z_mm", 0.0))
     feed = table.number("feed_mm_min", positive=True)
     centered = table.flag("centered")
@@ -196,8 +200,8 @@ def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6
         if again is not None:
             row, first = again
             same = "" if angles[row] == written[row] else f" ({angles[row]:g} deg)"
-            raise table.error(f"angle {written[row]:g} deg{same} again (first on line {table.rows[first][0]})",
-                              table.rows[row][0])
+            raise table.error(f"angle {written[row]:g} deg{same} again (first on line {table.rows[first][0]}): "
+                              f"{REPEATED}", table.rows[row][0])
     return make_trace(path, radius, direction, angles, deviations, centre, feed, centered, raw, table.extras,
                       averaging if raw else 1, rows)
 

@@ -26,6 +26,9 @@ MAGICS = {
     "# postproc probe 1": "probe file",
     "# postproc probe-calibration 1": "probe calibration",
 }
+#: magic line -> how a table of that kind laid out otherwise is made into one
+CONVERTERS = {"# postproc ballbar 1": "; an instrument's export laid out otherwise (its own columns, semicolons, "
+                                      "tabs, decimal commas, um) is converted by postproc import-trace"}
 
 
 @dataclass
@@ -50,7 +53,9 @@ class Table:
 
     # -- header values --------------------------------------------------------------
 
-    def number(self, key: str, default: float | None = None, positive: bool = False, required: bool = False) -> float | None:
+    def number(self, key: str, default: float | None = None, positive: bool = False, required: bool = False,
+               at_most: tuple[float, str] | None = None) -> float | None:
+        """A header number; ``at_most``: (the largest plausible value, what a larger one most likely is)."""
         if key not in self.header:
             if required:
                 raise self.error(f"the header key {key!r} is required")
@@ -61,22 +66,32 @@ class Table:
             raise self.error(f"{key} = {text!r} is not a number", line)
         if positive and value <= 0:
             raise self.error(f"{key} must be positive, not {text}", line)
+        if at_most is not None and value > at_most[0]:
+            raise self.error(f"{key} = {text} is above {at_most[0]:g}: {at_most[1]}", line)
         return value
 
-    def choice(self, key: str, options: tuple[str, ...], default: str | None = None, required: bool = False) -> str | None:
+    def choice(self, key: str, options: tuple[str, ...], default: str | None = None, required: bool = False,
+               meaning: str = "") -> str | None:
+        """One of ``options`` (any letter case); ``meaning`` says what each is, in the refusal."""
+        said = f" ({meaning})" if meaning else ""
         if key not in self.header:
             if required:
-                raise self.error(f"the header key {key!r} is required ({' or '.join(options)})")
+                raise self.error(f"the header key {key!r} is required ({' or '.join(options)}{'; ' + meaning if meaning else ''})")
             return default
         text, line = self.header[key]
         value = text.strip().lower()
         if value not in options:
-            raise self.error(f"{key} = {text!r}: expected {' or '.join(options)}", line)
+            raise self.error(f"{key} = {text!r}: expected {' or '.join(options)}{said}", line)
         return value
 
     def flag(self, key: str, default: bool = False) -> bool:
         value = self.choice(key, ("true", "false", "yes", "no", "1", "0"))
         return default if value is None else value in ("true", "yes", "1")
+
+
+def _laid_out_otherwise(magic: str, row: str) -> str:
+    """The converter's hint for a data row separated by semicolons or tabs, else nothing."""
+    return CONVERTERS.get(magic, "") if ";" in row or "\t" in row else ""
 
 
 def _float(text: str) -> float | None:
@@ -133,7 +148,7 @@ def measured_time(path: str) -> dt.datetime | None:
 
 def read_text(path: str) -> str:
     """A measurement file's text, from its one read: at most MAX_BYTES, UTF-8 (a BOM dropped)."""
-    return _decode(path, snapshot(path).data)
+    return _decode(inputs.named(path), snapshot(path).data)
 
 
 def snapshot(path: str) -> inputs.Snapshot:
@@ -148,6 +163,7 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
     accepts (each a list of column names, in any order).
     """
     lines = read_text(path).splitlines()
+    path = inputs.named(path)
     first = lines[0].strip()
     if first != magic:
         other = MAGICS.get(first)
@@ -191,7 +207,8 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
     columns = [name.strip() for name in lines[number - 1].split(",")]
     if sorted(columns) not in [sorted(c) for c in column_sets]:
         expected = " or ".join(",".join(c) for c in column_sets)
-        raise MeasurementError(f"the CSV header row must be {expected}, not {lines[number - 1].strip()!r}", Location(path, number))
+        raise MeasurementError(f"the CSV header row must be {expected}, not {lines[number - 1].strip()!r}"
+                               f"{CONVERTERS.get(magic, '')}", Location(path, number))
     table = Table(path, header, extras, columns)
     for row_number in range(number + 1, len(lines) + 1):
         text = lines[row_number - 1].strip()
@@ -201,12 +218,14 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
             raise MeasurementError("a header line after the data started", Location(path, row_number))
         cells = text.split(",")
         if len(cells) != len(columns):
-            raise MeasurementError(f"{len(cells)} values where the header row has {len(columns)}", Location(path, row_number))
+            raise MeasurementError(f"{len(cells)} values where the header row has {len(columns)}"
+                                   f"{_laid_out_otherwise(magic, text)}", Location(path, row_number))
         values = []
         for name, cell in zip(columns, cells):
             value = _float(cell)
             if value is None:
-                raise MeasurementError(f"{name} = {cell.strip()!r} is not a finite number", Location(path, row_number))
+                raise MeasurementError(f"{name} = {cell.strip()!r} is not a finite number{_laid_out_otherwise(magic, text)}",
+                                       Location(path, row_number))
             values.append(value)
         table.rows.append((row_number, values))
     if not table.rows:

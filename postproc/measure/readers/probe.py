@@ -25,6 +25,9 @@ PROBE_KEYS = {"stylus_radius_mm", "datum_before_x_mm", "datum_before_z_mm", "dat
               "repeatability_mm"}
 CALIBRATION_KEYS = {"stylus_radius_mm", "artifact_radius_mm", "artifact_center_x_mm", "artifact_center_z_mm"}
 UNIT_TOLERANCE = 0.001
+#: mm; a probe repeating worse than the largest correction cannot measure one (and as the floor of the
+#: outlier screening, a repeatability this large would call no touch an outlier, not even the nub)
+MAX_REPEATABILITY = 0.1
 #: (what the file's centres become, the likely cause) tried when touches lie far off what was probed
 MISREADINGS = (
     (lambda centres: centres / 1000.0, "micrometres written as millimetres? (the coordinates divided by 1000 fit)"),
@@ -114,7 +117,9 @@ def read_probe(path: str) -> ProbeFile:
     if set(before) != set(after):
         missing = sorted(set(before) ^ set(after))
         raise table.error(f"the datum is given before and after for different axes ({', '.join(missing)} unmatched)")
-    repeatability = table.number("repeatability_mm", positive=True)
+    repeatability = table.number("repeatability_mm", positive=True, at_most=(MAX_REPEATABILITY, (
+        "no probe that repeats so poorly can measure a correction (at most 0.1 mm); micrometres written as "
+        "millimetres?")))
     if before and repeatability is None:
         raise table.error("datum readings without repeatability_mm: the stability check needs it")
     centres, approach, lines = _touches(table)
