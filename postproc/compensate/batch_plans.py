@@ -15,10 +15,12 @@ angles, distances) is worked out here with :mod:`math` too. Two things cannot be
 by arrays, and neither decides a plan here:
 
 - the centre's fit, whose sums cannot be taken in the order of the segmenter's dot products:
-  the fitted centre only chooses which rounded centres are tried and which way the arc turns,
-  so a target whose centre lies within a thousand times the fit's settling step of a rounding
-  boundary, of a turning boundary or of the largest radius is left to the segmenter;
-- a value that rounds to a decimal within a hair of a half: snapped by :meth:`Grid.snap` itself.
+  the fitted centre only chooses which rounded centres are tried, which way the arc turns and
+  whether its radius is within the profile's largest, so a target whose centre lies within a
+  thousand times the fit's settling step of a rounding boundary, of a turning boundary or of
+  the largest radius (or beyond it) is left to the segmenter;
+- a value that rounds to a decimal within a hair of a half, or a scaled value beyond the
+  integers a float holds: rounded by the grid's own format.
 
 A target the segmenter would plan by another route (a bent line, a full circle, a target that
 turns back across its frame, one whose block does not keep within the tolerance) gets ``None``,
@@ -33,6 +35,7 @@ import math
 import numpy as np
 
 from ..geometry import TAU, Arc, Line
+from ..machine.resolution import rounded
 from .segmenter import (Cut, Limits, Plan, Target, _deviation, _grid_constants, arc_cut_spacing, chord_cannot_follow,
                         measure_bends, unit_steps)
 
@@ -42,8 +45,9 @@ _SETTLED = 1e-12
 #: how far (mm, relative to the centre's distance from the chord, at least 1) a centre fitted
 #: here may lie from the segmenter's: a thousand times the fit's settling step
 _FIT_DOUBT = 1e-9
-#: a scaled value within this of a half is rounded by Python's correctly rounded format instead
+#: a scaled value within this of a half, or this large, is rounded by the grid's own format instead
 _NEAR_HALF = 1e-6
+_EXACT = 2.0**52
 
 
 def batch_plans(targets: list[Target], limits: list[Limits], arcs: bool = True) -> list[Plan | None]:
@@ -94,20 +98,19 @@ def _grid_of(limits: Limits) -> tuple[float, float, float]:
 
 
 def _snapped(x: np.ndarray, z: np.ndarray, decimals: np.ndarray, diameter: np.ndarray, unit: np.ndarray):
-    """:meth:`Grid.snap` of many points: the word's digits by ``rint`` where the scaled value is
-    not within a hair of a half (else by the grid's correctly rounded format), and the word's
-    value as the quotient of its digits by the scale, as parsing the decimal gives."""
+    """:meth:`Grid.snap` of many points: the word as the quotient of its digits (``rint`` of the
+    scaled value) by the scale, as parsing the decimal gives; by the grid's own correctly rounded
+    format (:func:`rounded`) where the scaled value lies within a hair of a half, or beyond the
+    integers a float holds exactly."""
     scale = 10.0**decimals
     words = []
     for value in (x * diameter / unit, z / unit):
         scaled = value * scale
-        digits = np.rint(scaled)
-        near = np.abs(np.abs(scaled - np.floor(scaled)) - 0.5) < _NEAR_HALF
-        for k in np.flatnonzero(near).tolist():
-            places = int(decimals[k])
-            digits[k] = round(float("%.*f" % (places, value[k])) * 10**places)
-        word = digits / scale
+        word = np.rint(scaled) / scale
         word += 0.0
+        doubtful = (np.abs(np.abs(scaled - np.floor(scaled)) - 0.5) < _NEAR_HALF) | (np.abs(scaled) >= _EXACT)
+        for k in np.flatnonzero(doubtful & np.isfinite(scaled)).tolist():
+            word[k] = rounded(float(value[k]), int(decimals[k])) + 0.0
         words.append(word)
     return words[0] * unit / diameter, words[1] * unit
 
@@ -278,13 +281,13 @@ class _Batch:
 
     def _centres(self) -> None:
         """The fitted centre, the way the arc turns (:meth:`Segmenter._direction`) and the I and
-        K words in grid steps (as :meth:`Segmenter._rounded_centres` counts them), where the fit's doubt
-        cannot change them."""
+        K words in grid steps (as :meth:`Segmenter._rounded_centres` counts them), where the
+        fit's doubt cannot change them, for an arc whose radius is clearly within the largest."""
         lam, (mid_x, mid_z), (nx, nz) = self.lam, self.mid, self.normal
         doubt = _FIT_DOUBT * np.maximum(1.0, np.abs(lam))
         with np.errstate(all="ignore"):
             centre_x, centre_z = mid_x + lam * nx, mid_z + lam * nz
-            self.live &= np.abs(np.hypot(self.half, lam) - self.max_radius) > doubt
+            self.live &= np.hypot(self.half, lam) < self.max_radius - doubt  # the segmenter refuses a larger one
             margin = doubt / (self.unit * self.step)
             (ax, az), (bx, bz) = self.a, self.b
             for steps in ((centre_x - ax) / self.unit / self.step, (centre_z - az) / self.unit / self.step):

@@ -60,7 +60,8 @@ def cam_targets(draw):
     target = displaced(arc, scale, offset, draw(st.sampled_from([0.0, draw(st.floats(0.0, 0.01))])), draw(st.integers(1, 4)))
     tolerance = draw(st.sampled_from([0.0005, 0.001, 0.002, 0.005, 0.00508]))  # mm, whatever the grid's units
     radius_tolerance = draw(st.sampled_from([DEFAULT.arc_radius_tolerance, 0.002, 1e-4]))
-    return target, Limits(tolerance, grid, radius_tolerance, DEFAULT.max_arc_radius)
+    largest = draw(st.sampled_from([DEFAULT.max_arc_radius, DEFAULT.max_arc_radius, 300.0, 20.0]))
+    return target, Limits(tolerance, grid, radius_tolerance, largest)
 
 
 def same_plan(found, expected) -> bool:
@@ -157,6 +158,35 @@ def test_targets_planned_another_way_are_left_to_the_segmenter():
                Target(two, np.array([0.0, 1.0]), np.zeros((2, 2))), Target(back, t, along)]
     assert batch_plans(targets, [Limits(0.001, grid)] * len(targets)) == [None] * len(targets)
     assert batch_plans([], []) == []
+
+
+def test_an_arc_beyond_the_profile_s_largest_radius_is_left_to_the_segmenter():
+    """An R400 arc on a machine whose largest arc radius is 300 mm: the segmenter writes it as
+    lines (or smaller arcs), never as one arc the control would refuse; the batch finds nothing.
+    Within the largest radius the batch finds the segmenter's arc."""
+    grid = GRIDS[0]
+    arc = cam_arc(grid, 40.0, -10.0, 400.0, 0.0, -0.1, 0.0)
+    target = displaced(arc, (1e-4, -1e-4), (0.004, 0.002), 0.0, 1)
+    for largest, method in ((300.0, None), (500.0, "arc")):
+        limits = Limits(0.001, grid, DEFAULT.arc_radius_tolerance, largest)
+        found = batch_plans([target], [limits])[0]
+        expected = plan(target, limits)
+        assert (found and found.method) == method
+        assert method is None and not (len(expected.cuts) == 1 and expected.cuts[0].is_arc) or same_plan(found, expected)
+
+
+def test_points_beyond_the_integers_a_float_holds_are_snapped_as_the_grid_snaps_them():
+    """Some 1e13 mm at 3 decimals: the scaled value is past 2**53, where rint is not the decimal
+    rounding; the grid's own format decides there (no lathe reaches it; the library may)."""
+    grid = GRIDS[0]
+    line = Line(0.0, 0.0, 1.0, 1.0)
+    rng = np.random.default_rng(3)
+    points = [(float(a), float(b)) for a, b in rng.uniform(1e13, 6e13, (200, 2))]
+    targets = [Target(line, np.array([0.0, 1.0]), np.array([[a, b], [a + 1e6, b + 1e6]]) - line.point_at(np.array([0.0, 1.0])))
+               for a, b in points]
+    for (a, b), found in zip(points, batch_plans(targets, [Limits(1.0, grid)] * len(targets))):
+        if found is not None:
+            assert repr(found.cuts[0].start) == repr(grid.snap(a, b))
 
 
 def test_an_arc_a_line_follows_is_the_segmenter_s_line():
