@@ -7,6 +7,8 @@ their own."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..diagnostics import Location, SafetyError
@@ -61,6 +63,7 @@ class Writing:
         if entry.moving is not None:
             _one_block_for_other_axes(entry, len(cuts), self.file, joined=True)  # joins may have split it
         self._within_limits(step, cuts)
+        self._arcs_the_control_runs(step, cuts)
         modal = step.modal
         key = (modal.inch, modal.absolute, entry.axes)
         writer = self._writers.get(key)
@@ -187,6 +190,27 @@ class Writing:
                     f"the compensated move reaches {name} = {beyond:.4f} mm, beyond the soft limit "
                     f"{limits[0]:g} .. {limits[1]:g} mm of the machine profile",
                     _where(self.file, step))
+
+
+    def _arcs_the_control_runs(self, step: Step, cuts: list[Cut]) -> None:
+        """Every arc written keeps to what the control runs: its radius within the profile's
+        largest (a grid step to spare: the segmenter holds the fitted centre to it, not the
+        rounded one) and its end radius within the radius check of its start's. The segmenter
+        plans no other arc; this holds whatever planned it."""
+        profile = self.profile
+        grid = self._grid(step)
+        largest = profile.max_arc_radius + grid.step * grid.unit
+        for cut in cuts:
+            if cut.xc is None:
+                continue
+            r0 = math.hypot(cut.x0 - cut.xc, cut.z0 - cut.zc)
+            r1 = math.hypot(cut.x1 - cut.xc, cut.z1 - cut.zc)
+            if max(r0, r1) > largest or abs(r1 - r0) > profile.arc_radius_tolerance:
+                raise SafetyError(
+                    f"a compensated arc of radius {r0:.4f} mm (end radius {r1:.4f} mm) is beyond what the machine "
+                    f"profile lets the control run: max_arc_radius {profile.max_arc_radius:g} mm, "
+                    f"arc_radius_tolerance {profile.arc_radius_tolerance:g} mm; no program was written (a fault of the "
+                    f"planner: please report it with the program)", _where(self.file, step))
 
 
 def _macro_refusal(word, where: Location, detail: str) -> SafetyError:

@@ -249,8 +249,14 @@ class WordConversion:
             if "S" in values:
                 self.modal = replace(self.modal, clamp=values["S"])
             # The tool stays; its coordinates become those a move with these words would end at:
-            # X and Z as the distance mode reads them, U and W added to the old ones (G50 W-5.).
-            self.x, self.z = self._target(words, block)
+            # U and W added to the old ones (G50 W-5.), X and Z named in G90. X or Z under G91
+            # (G92 in systems B and C) is read by controls either way, as new coordinates or as a
+            # shift: the position on that axis is unknown, not guessed.
+            x, z = self._target(words, block)
+            if not self.modal.absolute:
+                x = None if "X" in values or "X" in words.unknown else x
+                z = None if "Z" in values or "Z" in words.unknown else z
+            self.x, self.z = x, z
             return Step(block, (), self.modal, names_position=self.modal.absolute and ("X" in values or "Z" in values))
         if meaning in (G.HOME, G.HOME2):
             return self._reference_return(block, words)

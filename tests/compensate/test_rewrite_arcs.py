@@ -275,3 +275,20 @@ def test_an_arc_batchs_reversals_found_at_once_split_and_steer_its_moves_as_one_
                [(p.segment, p.t.tolist(), p.x_direction, p.z_direction) for p in together]
         one_by_one, batched = travel_after(move, one_by_one, steps), travel_after(move, batched, steps, turns)
         assert one_by_one == batched
+
+
+@pytest.mark.parametrize("limit", ["max_arc_radius", "arc_radius_tolerance"])
+def test_an_arc_beyond_what_the_profile_lets_the_control_run_is_never_written(model, monkeypatch, limit):
+    """Whatever planned it: with the planner's limits loosened behind the profile's back, an R400
+    arc comes out as one arc, which a machine whose profile allows 300 mm (or a radius check of
+    a nanometre) cannot run; the writer refuses it, naming the key, and nothing is written."""
+    from postproc.compensate import planning
+    from postproc.compensate.segmenter import Limits
+    from postproc.diagnostics import SafetyError
+
+    program = "G18 G21 G99 F0.2\nG00 X40. Z2.\nG01 Z0.\nG03 X42.808 Z-17.967 R400.\nG00 X60.\n"
+    profile = {"max_arc_radius": 300.0} if limit == "max_arc_radius" else {"arc_radius_tolerance": 1e-6}
+    loose = lambda self, step, held=0.0: Limits(self._tolerance(step) - held, self._grid(step), math.inf, math.inf)
+    monkeypatch.setattr(planning.Planning, "_limits_for", loose)
+    with pytest.raises(SafetyError, match=limit):
+        _compensated(program, model, **profile)
