@@ -65,8 +65,8 @@ class Planning:
         targets: list[Target] = []
         limits: list[Limits] = []
         for entry in batch:
-            if not entry.motion:
-                continue
+            if not entry.motion or entry.refusal is not None:  # a refused step is never planned: a
+                continue  # correction beyond the maximum may be of any size
             for edit in entry.edits:
                 if edit is None:
                     continue

@@ -264,3 +264,22 @@ def test_a_program_compensated_with_moves_planned_together_is_the_same_byte_for_
     monkeypatch.setattr(planning.Planning, "_presolve", lambda self, batch: None)
     assert text == Pipeline(model=model, tolerance=tolerance, mode=mode, reporter=Reporter()).compensate_text(program,
                                                                                                              "t.nc")
+
+
+def test_a_step_refused_for_its_correction_is_not_planned_with_its_batch(model, monkeypatch):
+    """A correction beyond the maximum refuses the run when its step is reached, and may be of any
+    size (a model of the wrong machine, a unit slip): planning it first could take any time and
+    memory. The batch plans none of the refused steps' moves."""
+    from postproc.diagnostics import SafetyError
+
+    planned = []
+
+    def recorded(targets, limits, arcs=True):
+        planned.extend(targets)
+        return batch_plans(targets, limits, arcs)
+
+    monkeypatch.setattr(planning, "batch_plans", recorded)
+    with pytest.raises(SafetyError, match="maximum correction"):
+        Pipeline(model=model, tolerance=0.001, max_correction=0.005, reporter=Reporter()).compensate_text(
+            fillet_program(20), "t.nc")
+    assert planned and all(np.hypot(*target.d.T).max() <= 0.005 for target in planned)
