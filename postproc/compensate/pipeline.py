@@ -71,7 +71,7 @@ class Pipeline:
             installed = registry.select(request.plugins)
             self.installed = installed
             self.settings = parse_options(request.options, [item.cls for item in installed])
-            self.compensators: list[Compensator] = [item.cls(context, self.settings[item.cls.name])
+            self.compensators: list[Compensator] = [_built(item.cls, context, self.settings[item.cls.name])
                                                     for item in installed]
             self._fit()
 
@@ -88,7 +88,7 @@ class Pipeline:
             self.reporter.warn(f"the model was made by {item.cls.name} {data.get('plugin_version')}; "
                                f"{item.version} is installed", Location(path))
         options = check_options(data["options"], item.cls, Location(path))
-        compensator = item.cls(context, options)
+        compensator = _built(item.cls, context, options)
         self._guarded(compensator, "load", compensator.load, data["model"], model=path)
         self.installed, self.compensators = installed, [compensator]
         self.settings = {item.cls.name: options}
@@ -108,7 +108,7 @@ class Pipeline:
         except (TypeError, ValueError, ModelError) as exc:
             raise PluginError(compensator.name, f"its model would not read back: {getattr(exc, 'message', exc)}") from None
         # and the compensator takes it back, as compensate --model will give it
-        fresh = item.cls(dataclasses.replace(compensator.context, reporter=Reporter()), self.settings[compensator.name])
+        fresh = _built(item.cls, dataclasses.replace(compensator.context, reporter=Reporter()), self.settings[compensator.name])
         try:
             self._guarded(fresh, "load of its own model", fresh.load, saved["model"])
         except ModelError as exc:
@@ -413,6 +413,12 @@ class _time_limit:
     @staticmethod
     def _expire(signum, frame):
         raise _Overtime()
+
+
+def _built(cls: type[Compensator], context: Context, settings: dict[str, Any]) -> Compensator:
+    """A compensator made: what its ``__init__`` prints goes to stderr, as in ``Pipeline._guarded``."""
+    with redirect_stdout(sys.stderr):
+        return cls(context, settings)
 
 
 def _not_an_opening_block(steps: list[Step]) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import subprocess
@@ -629,6 +630,49 @@ def _clashing_distribution(site: Path, provides: str) -> None:
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: clash-plugin\nVersion: 1.0\n")
     (info / "entry_points.txt").write_text("[postproc]\nclash = clash_plugin\n")
+
+
+def _undated(model: dict) -> dict:
+    return {key: value for key, value in model.items() if key not in ("created", "measured", "sha256")}
+
+
+def test_what_a_plugin_prints_on_import_in_a_hook_or_when_made_goes_to_stderr(tmp_path):
+    """Plugin code runs when its module is imported, when its hook is called and when its
+    compensator is made, not only in the calls the pipeline guards: stdout carries the program
+    (or the model) alone, whatever the plugin prints on the way."""
+    (tmp_path / "chatty_plugin.py").write_text(
+        "from postproc.compensator import Compensator\nfrom postproc.hookspecs import hookimpl\n"
+        "print('G00 X0. (IMPORTED)')\n\n\n"
+        "class Chatty(Compensator):\n    name = 'chatty'\n\n"
+        "    def __init__(self, context, settings=None):\n        print('G00 X0. (MADE)')\n"
+        "        super().__init__(context, settings)\n\n"
+        "    def fit(self, measurements):\n        print('G00 X0. (FITTED)')\n\n"
+        "    def correct(self, piece):\n        return None\n\n"
+        "    def model(self):\n        return {}\n\n"
+        "    def load(self, model):\n        print('G00 X0. (LOADED)')\n\n\n"
+        "@hookimpl\ndef postproc_compensators():\n    print('G00 X0. (LISTED)')\n    return [Chatty]\n")
+    info = tmp_path / "chatty_plugin-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: chatty-plugin\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text("[postproc]\nchatty = chatty_plugin\n")
+    main = "from postproc.cli.main import main; main()"
+    written, model = tmp_path / "written.nc", tmp_path / "model.json"
+    for args, target in [(("compensate", HEMISHELL, "--plugin", "chatty"), written),
+                         (("fit", "--plugin", "chatty"), model)]:
+        to_file = _fresh(main, tmp_path, *args, "-o", str(target))
+        assert to_file.returncode == 0, to_file.stderr
+        to_stdout = _fresh(main, tmp_path, *args, "-o", "-")
+        assert to_stdout.returncode == 0, to_stdout.stderr
+        if target is written:
+            assert to_stdout.stdout == target.read_text()
+        else:  # the model alone, as written to a file but for when it was made
+            assert _undated(json.loads(to_stdout.stdout)) == _undated(json.loads(target.read_text()))
+        for word in ("IMPORTED", "LISTED", "MADE"):
+            assert f"G00 X0. ({word})" in to_stdout.stderr
+    loaded = _fresh(main, tmp_path, "compensate", HEMISHELL, "--model", str(model), "-o", "-")
+    assert loaded.returncode == 0, loaded.stderr
+    assert loaded.stdout.startswith("%\n") and "(LOADED)" not in loaded.stdout and "(MADE)" not in loaded.stdout
+    assert "G00 X0. (LOADED)" in loaded.stderr
 
 
 @pytest.mark.parametrize("provides", ["iterative", "parametric"])
