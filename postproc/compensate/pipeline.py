@@ -93,7 +93,7 @@ class Pipeline:
         self.installed, self.compensators = installed, [compensator]
         self.settings = {item.cls.name: options}
         self.inputs = [(entry["file"], entry["sha256"]) for entry in data.get("inputs", [])]
-        self.inputs.append((path, data["sha256"]))
+        self.inputs.append((inputs.named(path), data["sha256"]))
 
     def saved_model(self, note: str | None = None) -> dict[str, Any]:
         """The fitted model of the one compensator, with its provenance, for ``postproc fit``."""
@@ -133,7 +133,7 @@ class Pipeline:
         context = ReadContext(self.reporter)
         read = {kind: [read_measurement(path, kind, readers, context) for path in files] for kind, files in given.items()}
         paths = [path for files in given.values() for path in files]
-        self.inputs += [(path, _digest(path)) for path in paths]
+        self.inputs += [(inputs.named(path), _digest(path)) for path in paths]
         self.measured = models.measurement_times(paths)
         with progress.bar(len(self.compensators), "fitting") as shown:
             for compensator in self.compensators:
@@ -345,7 +345,7 @@ class Pipeline:
         for path, sha in self.inputs:
             lines.append(f"INPUT {path.rsplit('/', 1)[-1][:28]} SHA256 {sha[:12]}")
         if request.model:
-            lines.append(f"MODEL {request.model.rsplit('/', 1)[-1][:28]}")
+            lines.append(f"MODEL {inputs.named(request.model).rsplit('/', 1)[-1][:28]}")
         lines += [f"REGION {region.strip()}" for region in request.regions]
         tolerance = request.tolerance
         lines.append(f"TOLERANCE {'DEFAULT' if tolerance is None else f'{tolerance:g} MM'} MODE {request.mode}")
