@@ -17,7 +17,8 @@ exit codes as the command line; warnings are collected in ``pipeline.warnings``.
 checked as the command line's options are: a value of the wrong type (one string where a list
 of them is expected, which Python would read letter by letter; a mode the command line has no
 choice for; a flag that is not a bool) is an :class:`~postproc.diagnostics.OptionError` naming
-the argument, never a guess. Paths may be ``str`` or :class:`os.PathLike`.
+the argument, never a guess. A path is a ``str`` or an :class:`os.PathLike`; None only where the
+argument is optional (``calibration``, ``model``, ``machine``), never for a file to read or write.
 """
 
 from __future__ import annotations
@@ -75,7 +76,8 @@ class Pipeline:
         plugins, options, regions = (_strings(name, value) for name, value in
                                      (("plugins", plugins), ("options", options), ("regions", regions)))
         ballbar, probe = _paths("ballbar", ballbar), _paths("probe", probe)
-        calibration, model = _path("calibration", calibration), _path("model", model)
+        calibration, model = (None if value is None else _path(name, value)
+                              for name, value in (("calibration", calibration), ("model", model)))
         _choice("mode", mode, ("auto", "arc", "line"))
         _choice("macro_values", macro_values, ("refuse", "keep", "numbers"))
         for name, value in (("force", force), ("keep_unplannable", keep_unplannable)):
@@ -171,10 +173,9 @@ def _paths(name: str, value: Any) -> list[str]:
         raise OptionError(f"{name}={value!r}: expected a list of paths") from None
 
 
-def _path(name: str, value: Any) -> str | None:
-    """One path argument (str or os.PathLike), as a string; None stays None."""
-    if value is None:
-        return None
+def _path(name: str, value: Any) -> str:
+    """One path argument (str or os.PathLike), as a string. None is refused as any other
+    non-path: an output of None would spool the program and write it nowhere."""
     if isinstance(value, os.PathLike):
         value = os.fspath(value)
     if not isinstance(value, str) or not value:

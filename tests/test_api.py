@@ -19,8 +19,8 @@ PARAMETRIC = {"plugins": ["parametric"], "ballbar": [CCW, CW]}
 #: argument -> values of the wrong type or outside its choices (each with a working rest)
 WRONG = {
     "plugins": ["parametric", b"parametric", 7, [None], [Path("parametric")]],
-    "ballbar": [CCW, Path(CCW), 3.0, [CCW, 7], [CCW, ""]],
-    "probe": [str(SAMPLES / "probe" / "hemishell-pass1.csv"), [b"probe.csv"]],
+    "ballbar": [CCW, Path(CCW), 3.0, [CCW, 7], [CCW, ""], [CCW, None], None],
+    "probe": [str(SAMPLES / "probe" / "hemishell-pass1.csv"), [b"probe.csv"], [None]],
     "calibration": [7, ["cal.csv"], ""],
     "model": [1.5, ["model.json"]],
     "options": ["extrapolate=true", [("extrapolate", "true")]],
@@ -67,6 +67,20 @@ def test_a_machine_may_be_a_mapping_of_profile_keys_and_is_checked_as_a_file_is(
     assert isinstance(postproc.Pipeline(machine=profiles.DEFAULT).profile, profiles.MachineProfile)
     with pytest.raises(OptionError, match="unknown key 'max_corection' in machine profile; did you mean 'max_correction'"):
         postproc.Pipeline(machine={"max_corection": 0.05})
+
+
+@pytest.mark.parametrize("argument", ["path", "output"])
+@pytest.mark.parametrize("value", [None, 7, b"out.nc", ""])
+def test_a_file_to_compensate_or_write_that_is_not_a_path_is_refused_by_name(argument, value, tmp_path, capsys):
+    """An output of None spooled the program and wrote it nowhere, with a Summary as if done; a
+    path of None was a bare TypeError: every path argument is a str or os.PathLike, or an
+    OptionError naming it, and nothing is written."""
+    pipeline = postproc.Pipeline(plugins=["parametric"], ballbar=[CCW, CW])
+    arguments = {"path": HEMISHELL, "output": tmp_path / "out.nc", argument: value}
+    with pytest.raises(OptionError) as caught:
+        pipeline.compensate_file(**arguments)
+    assert caught.value.message.startswith(f"{argument}: ") and "is not a path" in caught.value.message
+    assert list(tmp_path.iterdir()) == [] and capsys.readouterr() == ("", "")
 
 
 @pytest.mark.parametrize("text", [None, 42, ["G01 X1."]])

@@ -71,7 +71,7 @@ class Pipeline:
             installed = registry.select(request.plugins)
             self.installed = installed
             self.settings = parse_options(request.options, [item.cls for item in installed])
-            self.compensators: list[Compensator] = [item.cls(context, self.settings[item.cls.name])
+            self.compensators: list[Compensator] = [_built(item.cls, context, self.settings[item.cls.name])
                                                     for item in installed]
             self._fit()
 
@@ -88,12 +88,12 @@ class Pipeline:
             self.reporter.warn(f"the model was made by {item.cls.name} {data.get('plugin_version')}; "
                                f"{item.version} is installed", Location(path))
         options = check_options(data["options"], item.cls, Location(path))
-        compensator = item.cls(context, options)
+        compensator = _built(item.cls, context, options)
         self._guarded(compensator, "load", compensator.load, data["model"], model=path)
         self.installed, self.compensators = installed, [compensator]
         self.settings = {item.cls.name: options}
         self.inputs = [(entry["file"], entry["sha256"]) for entry in data.get("inputs", [])]
-        self.inputs.append((path, data["sha256"]))
+        self.inputs.append((inputs.named(path), data["sha256"]))
 
     def saved_model(self, note: str | None = None) -> dict[str, Any]:
         """The fitted model of the one compensator, with its provenance, for ``postproc fit``."""
@@ -108,7 +108,7 @@ class Pipeline:
         except (TypeError, ValueError, ModelError) as exc:
             raise PluginError(compensator.name, f"its model would not read back: {getattr(exc, 'message', exc)}") from None
         # and the compensator takes it back, as compensate --model will give it
-        fresh = item.cls(dataclasses.replace(compensator.context, reporter=Reporter()), self.settings[compensator.name])
+        fresh = _built(item.cls, dataclasses.replace(compensator.context, reporter=Reporter()), self.settings[compensator.name])
         try:
             self._guarded(fresh, "load of its own model", fresh.load, saved["model"])
         except ModelError as exc:
@@ -133,7 +133,7 @@ class Pipeline:
         context = ReadContext(self.reporter)
         read = {kind: [read_measurement(path, kind, readers, context) for path in files] for kind, files in given.items()}
         paths = [path for files in given.values() for path in files]
-        self.inputs += [(path, _digest(path)) for path in paths]
+        self.inputs += [(inputs.named(path), _digest(path)) for path in paths]
         self.measured = models.measurement_times(paths)
         with progress.bar(len(self.compensators), "fitting") as shown:
             for compensator in self.compensators:
@@ -281,8 +281,8 @@ class Pipeline:
                     raise PluginError(compensator.name, f"its opening block {text!r} does not read: {exc.message}") from None
                 refused = _not_an_opening_block(steps)
                 if refused:
-                    raise PluginError(compensator.name, f"its opening block {text!r} {refused}; an opening block sets data "
-                                                        "(G10) or is a comment, and changes nothing the program relies on")
+                    raise PluginError(compensator.name, f"its opening block {text!r} {refused}; an opening block sets a tool "
+                                                        "offset (G10 P<n>) or is a comment, and changes nothing the program relies on")
                 blocks.append((compensator.name, text))
         if blocks and anchor is None:
             where = Location(source.name, stop.block.line, 1, stop.block.text) if stop is not None else Location(source.name)
@@ -345,7 +345,7 @@ class Pipeline:
         for path, sha in self.inputs:
             lines.append(f"INPUT {path.rsplit('/', 1)[-1][:28]} SHA256 {sha[:12]}")
         if request.model:
-            lines.append(f"MODEL {request.model.rsplit('/', 1)[-1][:28]}")
+            lines.append(f"MODEL {inputs.named(request.model).rsplit('/', 1)[-1][:28]}")
         lines += [f"REGION {region.strip()}" for region in request.regions]
         tolerance = request.tolerance
         lines.append(f"TOLERANCE {'DEFAULT' if tolerance is None else f'{tolerance:g} MM'} MODE {request.mode}")
@@ -415,25 +415,63 @@ class _time_limit:
         raise _Overtime()
 
 
+def _built(cls: type[Compensator], context: Context, settings: dict[str, Any]) -> Compensator:
+    """A compensator made: what its ``__init__`` prints goes to stderr, as in ``Pipeline._guarded``."""
+    with redirect_stdout(sys.stderr):
+        return cls(context, settings)
+
+
+#: the words of a tool offset setting on a FANUC lathe, ``G10 P_ X(U)_ Y(V)_ Z(W)_ R(C)_ Q_``
+_OFFSET_WORDS = frozenset("PXUYVZWRCQ")
+
+
+def _offset_number(text: str) -> bool:
+    """Whether a G10's P, as written, numbers a tool offset: P1-P9999 a wear offset, P10001-P19999
+    a geometry offset (P0 is the work shift)."""
+    return text.isascii() and text.isdigit() and int(text) % 10000 != 0 and int(text) < 20000
+
+
 def _not_an_opening_block(steps: list[Step]) -> str:
     """Why a compensator's opening block (interpreted after a units block) may not open a
     program, or nothing. It goes in before the program's first tool call or move, so anything
-    but setting data would change how the program runs: a move, a modal change (G91, units,
-    spindle), a new coordinate system (G50, G54, G92), a tool call, a macro assignment the
-    program may read, parameter input (G10 L50, whose following blocks are read as parameters)."""
+    but setting a tool offset would change how the program runs: a move, a modal change (G91,
+    units, spindle), a new coordinate system (G50, G54, G92), a tool call, a macro assignment
+    the program may read. So a G10 is held to the one form a compensator has use for, a tool's
+    wear or geometry offset (``G10 P<n>`` with X/U, Y/V, Z/W, R/C, Q), every word a number as
+    written: an ``L`` selects other data (L2/L20 work offsets, L3 tool-life data and L50
+    parameters, whose following blocks are read as data until G11), P0 rewrites the work shift,
+    and a computed word (``L[50]``, ``P#1``) is whatever the control computes."""
     units, step = steps[0], steps[-1]
     block = step.block
-    codes = [(address.upper(), str(value)) for address, value in block.codes]
-    if step.moves:
-        return "moves the machine"
+    codes = [(address.upper(), value) for address, value in block.codes]
     if block.statement is not None:
         return "is a macro statement"
+    g10 = [value for address, value in codes if address == "G"] == ["10"]
+    if g10 and not any(address in "MSTFN" for address, _ in codes):
+        refused = _not_a_tool_offset([(address, value) for address, value in codes if address != "G"])
+        if refused:  # before the moves: a computed P may be the work shift, which the tool's position is then not known in
+            return f"is not a G10 tool offset setting: {refused}"
+    if step.moves:
+        return "moves the machine"
     if step.modal != units.modal or not step.interpreted:
         return "changes the modal state"
-    g_codes = [value for address, value in codes if address == "G"]
-    if codes and (g_codes != ["10"] or any(address in "MSTFN" for address, _ in codes)
-                  or any(address == "L" and value.rstrip(".").lstrip("0") == "50" for address, value in codes)):
+    if codes and not g10 or any(address in "MSTFN" for address, _ in codes):
         return "is not a G10 data setting"
+    return ""
+
+
+def _not_a_tool_offset(words: list[tuple[str, Any]]) -> str:
+    """Why a G10's words (but G) do not set a tool offset as written, or nothing."""
+    other = next((address for address, _ in words if address not in _OFFSET_WORDS), None)
+    if other is not None:
+        return (f"it gives {other} (a tool offset is G10 P<n> with X/U, Y/V, Z/W, R/C, Q; an L selects other data: "
+                "L2/L20 work offsets, L3 tool life, L50 parameters)")
+    computed = next((address for address, value in words if type(value) is not str), None)
+    if computed is not None:
+        return f"its {computed} is computed (an opening block gives numbers as written)"
+    number = [value for address, value in words if address == "P"]
+    if len(number) != 1 or not _offset_number(number[0]):
+        return "it needs one P, a wear offset P1-P9999 or a geometry offset P10001-P19999 (P0 sets the work shift)"
     return ""
 
 

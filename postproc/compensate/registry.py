@@ -28,6 +28,7 @@ import os
 import re
 import sys
 import dataclasses
+from contextlib import redirect_stdout
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -66,7 +67,8 @@ def _load(name: str | None = None) -> pluggy.PluginManager:
     """Load the entry points of that name (None: all) not loaded yet."""
     pm = _bare()
     try:
-        pm.load_setuptools_entrypoints(GROUP, name)
+        with redirect_stdout(sys.stderr):  # what a plugin prints on import goes to stderr: stdout carries the output alone
+            pm.load_setuptools_entrypoints(GROUP, name)
     except Exception as exc:  # a broken plugin must not take the tool down without a word
         raise PluginError("entry point", f"a plugin failed to load: {exc}") from None
     pm.check_pending()
@@ -133,7 +135,8 @@ def _check_names(plugin: str, cls: type[Compensator]) -> None:
 def _offered(impl, hook: str) -> list:
     """What one plugin's hook implementation returns; a hook that fails is its plugin's fault."""
     try:
-        return list(impl.function() or ())
+        with redirect_stdout(sys.stderr):  # what a plugin prints goes to stderr: stdout carries the output alone
+            return list(impl.function() or ())
     except Exception as exc:
         raise PluginError(impl.plugin_name, f"{hook} failed: {exc.__class__.__name__}: {exc}") from None
 
@@ -283,8 +286,9 @@ def _load_own(own: _Own, name: str) -> None:
         return
     try:
         match = re.match(_VALUE, own.points[name])
-        plugin = functools.reduce(getattr, filter(None, (match.group("attr") or "").split(".")),
-                                  importlib.import_module(match.group("module")))
+        with redirect_stdout(sys.stderr):  # as in _load
+            module = importlib.import_module(match.group("module"))
+        plugin = functools.reduce(getattr, filter(None, (match.group("attr") or "").split(".")), module)
         pm.register(plugin, name=name)
     except Exception as exc:  # a broken plugin must not take the tool down without a word
         raise PluginError("entry point", f"a plugin failed to load: {exc}") from None

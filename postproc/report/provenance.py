@@ -36,7 +36,7 @@ class Input:
 def file_input(role: str, path: str, notes: str = "") -> Input:
     """A file as the run read it (its one read, :mod:`postproc.files.inputs`)."""
     snapshot = inputs.read(path, MAX_BYTES, PostprocError, "an input")
-    return Input(role, path, snapshot.sha256, len(snapshot.data), notes)
+    return Input(role, inputs.named(path), snapshot.sha256, len(snapshot.data), notes)
 
 
 def data_input(role: str, name: str, data: bytes) -> Input:

@@ -199,3 +199,31 @@ def test_a_metric_run_whose_correction_exceeds_the_tolerance_says_nothing_of_it(
     result = run("compensate", str(HEMISHELL), *TRACES)
     assert result.exit_code == 0 and "(POSTPROC" in result.stdout
     assert "within the tolerance" not in result.stderr
+
+
+def test_a_measurement_or_model_read_from_stdin_is_recorded_as_stdin(run, tmp_path):
+    """A file given as ``-`` is named ``<stdin>`` where the run records or shows it, as its
+    messages name it: in a saved model's inputs, in the provenance header (``_STDIN_``, the
+    header's letters), and in the ballbar and HTML reports; never as a bare ``-``."""
+    ccw = open(CCW, "rb").read()
+    model = tmp_path / "model.json"
+    fitted = run("fit", "--plugin", "parametric", "--ballbar", "-", "--ballbar", CW, "-o", str(model), input=ccw)
+    assert fitted.exit_code == 0, fitted.stderr
+    assert [entry["file"] for entry in json.loads(model.read_text())["inputs"]] == ["<stdin>", CW]
+    direct = run("compensate", str(HEMISHELL), "--plugin", "parametric", "--ballbar", "-", "--ballbar", CW, input=ccw)
+    assert direct.exit_code == 0, direct.stderr
+    assert "(INPUT _STDIN_ SHA256 BC5A9CF85373)\n" in direct.stdout and "(INPUT - " not in direct.stdout
+    loaded = run("compensate", str(HEMISHELL), "--model", "-", input=model.read_bytes())
+    assert loaded.exit_code == 0, loaded.stderr
+    header = [line for line in loaded.stdout.splitlines() if line.startswith(("(INPUT", "(MODEL"))]
+    digest = json.loads(model.read_text())["sha256"][:12].upper()
+    assert header == ["(INPUT _STDIN_ SHA256 BC5A9CF85373)", "(INPUT V40R-100-CW.CSV SHA256 DB4383B0A73C)",
+                      f"(INPUT _STDIN_ SHA256 {digest})", "(MODEL _STDIN_)"]
+    shown = run("ballbar", "-", CW, input=ccw)
+    assert shown.exit_code == 0, shown.stderr
+    assert "  ccw <stdin> (720 samples, the whole circle)" in shown.stdout.splitlines()
+    report = tmp_path / "report.html"
+    reported = run("report", str(HEMISHELL), "--plugin", "parametric", "--ballbar", "-", "--ballbar", CW,
+                   "-o", str(report), input=ccw)
+    assert reported.exit_code == 0, reported.stderr
+    assert "<td>&lt;stdin&gt;</td>" in report.read_text() and "<td>-</td>" not in report.read_text()

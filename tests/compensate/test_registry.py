@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import subprocess
@@ -542,21 +543,32 @@ def test_what_a_compensator_prints_goes_to_stderr_never_into_the_program(run, re
     ("G28 U0.", "moves the machine"), ("G00 X50. Z5.", "moves the machine"), ("G91", "changes the modal state"),
     ("G20", "changes the modal state"), ("M03 S500", "changes the modal state"), ("T0202", "changes the modal state"),
     ("G50 X100. Z50.", "is not a G10 data setting"), ("G54", "is not a G10 data setting"),
-    ("G04 X1.", "is not a G10 data setting"), ("G10 L50", "is not a G10 data setting"),
-    ("#500 = 1.", "is a macro statement"), ("G11", "is not a G10 data setting"),
+    ("G04 X1.", "is not a G10 data setting"), ("#500 = 1.", "is a macro statement"),
+    ("G11", "is not a G10 data setting"),
+    # a G10 other than a tool offset setting: parameters, tool-life data, work offsets, computed words
+    ("G10 L50", "it gives L"), ("G10 L3", "it gives L"), ("G10 L[50]", "it gives L"), ("G10 L#1", "it gives L"),
+    ("G10 L2 P1 X0. Z0.", "it gives L"), ("G10 L20 P1 X0.", "it gives L"), ("G10 L1 P1 U0.01", "it gives L"),
+    ("G10 P1 U0.01 L50", "it gives L"), ("G10 P1 A5.", "it gives A"), ("G10 P1 U0.01 H1", "it gives H"),
+    ("G10 P0 X0. Z0.", "it needs one P"), ("G10 P10000 X1.", "it needs one P"), ("G10 P20001 X1.", "it needs one P"),
+    ("G10 P1.5 U0.01", "it needs one P"), ("G10 U0.01 W0.", "it needs one P"), ("G10", "it needs one P"),
+    ("G10 P1 P2 U0.01", "address P appears twice"),
+    ("G10 P#1 U0.01", "its P is computed"), ("G10 P[1] U0.01", "its P is computed"),
+    ("G10 P1 U#5", "its U is computed"), ("G10 P1 U[0.01]", "its U is computed"),
 ])
 def test_an_opening_block_that_would_change_how_the_program_runs_is_refused(run, registered, tmp_path, block, why):
-    """A compensator's opening blocks go in before the program's first move: anything but data
-    (a move, G91, other units, a new coordinate system, a tool call, parameter input, a macro
-    variable the program may read) would change the whole program behind the user's back."""
+    """A compensator's opening blocks go in before the program's first move: anything but a tool
+    offset setting (a move, G91, other units, a new coordinate system, a tool call, a G10 of
+    parameters, tool-life data or work offsets, a computed word, a macro variable the program
+    may read) would change the whole program behind the user's back."""
     registered(_compensator(prologue=lambda self, inch: [block]))
     target = tmp_path / "out.nc"
     result = run("compensate", HEMISHELL, "--plugin", "test-shop", "-o", str(target))
     assert result.exit_code == 5 and not target.exists()
-    assert f"plugin 'test-shop': its opening block {block!r} {why}" in result.stderr, result.stderr
+    assert f"plugin 'test-shop': its opening block {block!r} " in result.stderr and why in result.stderr, result.stderr
 
 
-@pytest.mark.parametrize("blocks", [["G10 P1 U0.01 W-0.004"], ["(WEAR SET BY SHOP)", "G10 P2 U0. W0.002"]])
+@pytest.mark.parametrize("blocks", [["G10 P1 U0.01 W-0.004"], ["(WEAR SET BY SHOP)", "G10 P2 U0. W0.002"],
+                                    ["G10 P10001 X-210.5 Z-305.25 R0.4 Q3"], ["G10 P12 X0.01 Y0. Z0.002 C0.01"]])
 def test_data_settings_and_comments_open_the_program(run, registered, blocks):
     registered(_compensator(prologue=lambda self, inch: blocks))
     result = run("compensate", HEMISHELL, "--plugin", "test-shop")
@@ -629,6 +641,49 @@ def _clashing_distribution(site: Path, provides: str) -> None:
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: clash-plugin\nVersion: 1.0\n")
     (info / "entry_points.txt").write_text("[postproc]\nclash = clash_plugin\n")
+
+
+def _undated(model: dict) -> dict:
+    return {key: value for key, value in model.items() if key not in ("created", "measured", "sha256")}
+
+
+def test_what_a_plugin_prints_on_import_in_a_hook_or_when_made_goes_to_stderr(tmp_path):
+    """Plugin code runs when its module is imported, when its hook is called and when its
+    compensator is made, not only in the calls the pipeline guards: stdout carries the program
+    (or the model) alone, whatever the plugin prints on the way."""
+    (tmp_path / "chatty_plugin.py").write_text(
+        "from postproc.compensator import Compensator\nfrom postproc.hookspecs import hookimpl\n"
+        "print('G00 X0. (IMPORTED)')\n\n\n"
+        "class Chatty(Compensator):\n    name = 'chatty'\n\n"
+        "    def __init__(self, context, settings=None):\n        print('G00 X0. (MADE)')\n"
+        "        super().__init__(context, settings)\n\n"
+        "    def fit(self, measurements):\n        print('G00 X0. (FITTED)')\n\n"
+        "    def correct(self, piece):\n        return None\n\n"
+        "    def model(self):\n        return {}\n\n"
+        "    def load(self, model):\n        print('G00 X0. (LOADED)')\n\n\n"
+        "@hookimpl\ndef postproc_compensators():\n    print('G00 X0. (LISTED)')\n    return [Chatty]\n")
+    info = tmp_path / "chatty_plugin-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: chatty-plugin\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text("[postproc]\nchatty = chatty_plugin\n")
+    main = "from postproc.cli.main import main; main()"
+    written, model = tmp_path / "written.nc", tmp_path / "model.json"
+    for args, target in [(("compensate", HEMISHELL, "--plugin", "chatty"), written),
+                         (("fit", "--plugin", "chatty"), model)]:
+        to_file = _fresh(main, tmp_path, *args, "-o", str(target))
+        assert to_file.returncode == 0, to_file.stderr
+        to_stdout = _fresh(main, tmp_path, *args, "-o", "-")
+        assert to_stdout.returncode == 0, to_stdout.stderr
+        if target is written:
+            assert to_stdout.stdout == target.read_text()
+        else:  # the model alone, as written to a file but for when it was made
+            assert _undated(json.loads(to_stdout.stdout)) == _undated(json.loads(target.read_text()))
+        for word in ("IMPORTED", "LISTED", "MADE"):
+            assert f"G00 X0. ({word})" in to_stdout.stderr
+    loaded = _fresh(main, tmp_path, "compensate", HEMISHELL, "--model", str(model), "-o", "-")
+    assert loaded.returncode == 0, loaded.stderr
+    assert loaded.stdout.startswith("%\n") and "(LOADED)" not in loaded.stdout and "(MADE)" not in loaded.stdout
+    assert "G00 X0. (LOADED)" in loaded.stderr
 
 
 @pytest.mark.parametrize("provides", ["iterative", "parametric"])

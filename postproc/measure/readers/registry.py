@@ -16,12 +16,12 @@ from __future__ import annotations
 
 import sys
 from contextlib import redirect_stdout
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Callable
 
 import numpy as np
 
-from ...diagnostics import Location, MeasurementError, PluginError, PostprocError, Reporter
+from ...diagnostics import STDIN_NAME, Location, MeasurementError, PluginError, PostprocError, Reporter
 from .csvfile import snapshot
 
 KINDS = ("ballbar", "probe", "calibration")
@@ -62,6 +62,8 @@ def read(path: str, kind: str, readers: list[MeasurementReader], context: ReadCo
         if _called(reader, "accepts", path, reader.accepts, path):
             found = _called(reader, "read", path, reader.read, path, context)
             _check_made(reader, path, found)
+            if path == "-":  # named as messages name it, wherever the measurement is shown or recorded
+                found = replace(found, path=STDIN_NAME)
             if kind == "ballbar":
                 from .ballbar import check_evidence
 
