@@ -10,8 +10,9 @@ refused unless forced, so nobody compensates twice by accident.
 A compensator's opening blocks (a G10 offset setting, say) go right after the block by which
 the program has set its units (G20/G21) and, when it sets it, its plane (G18), so that the
 control reads them in the program's units, and before the program's first tool call or
-move. A program that sets no units before those is refused for them: the blocks would be
-read in whatever units the control was left in. The header says what was added where.
+move. A program that sets no units before those (or sets them only behind a block delete
+``/``, which the control may skip) is refused for them: the blocks would be read in whatever
+units the control was left in. The header says what was added where.
 """
 
 from __future__ import annotations
@@ -266,7 +267,8 @@ class Pipeline:
 
         if all(type(c).prologue is Compensator.prologue for c in self.compensators):
             return [], None
-        anchor, stop = _units_and_plane(interpret_source(source, self.profile, Reporter()), self.profile.gcode_system)
+        anchor, stop, skippable = _units_and_plane(interpret_source(source, self.profile, Reporter()),
+                                                   self.profile.gcode_system)
         inch = anchor.modal.inch if anchor is not None else False
         blocks: list[tuple[str, str]] = []
         for compensator in self.compensators:
@@ -284,6 +286,13 @@ class Pipeline:
                     raise PluginError(compensator.name, f"its opening block {text!r} {refused}; an opening block sets a tool "
                                                         "offset (G10 P<n>) or is a comment, and changes nothing the program relies on")
                 blocks.append((compensator.name, text))
+        if blocks and anchor is None and skippable is not None:
+            switch = "/" if skippable.block.delete == 1 else f"/{skippable.block.delete}"
+            raise SafetyError(f"the program sets its units (G20/G21) only in a block behind the block delete "
+                              f"'{switch}', which the control skips with the block delete switch on: "
+                              f"{', '.join(t for _, t in blocks)} would then be read in whatever units the control was "
+                              f"left in; set the units in a block without '{switch}' before the first tool call or move",
+                              Location(source.name, skippable.block.line, 1, skippable.block.text))
         if blocks and anchor is None:
             where = Location(source.name, stop.block.line, 1, stop.block.text) if stop is not None else Location(source.name)
             what = "its first tool call or move" if stop is not None else "its end"
@@ -502,19 +511,22 @@ def _sets_units(step: Step, system: str) -> bool:
                in (G.INCH, G.METRIC) for letter, value in step.block.codes)
 
 
-def _units_and_plane(steps, system: str) -> tuple[Step | None, Step | None]:
-    """(anchor, stop): the step by which the program has set its units and, if it sets it
-    before, its plane, looked for before ``stop``, its first tool call or move (None: the end).
-    A block behind a block delete ``/`` sets nothing for certain: with the switch on, the control
-    skips it, and the blocks added after it would be read in the units it was left in."""
+def _units_and_plane(steps, system: str) -> tuple[Step | None, Step | None, Step | None]:
+    """(anchor, stop, skippable): the step by which the program has set its units and, if it
+    sets it before, its plane, looked for before ``stop``, its first tool call or move (None: the
+    end); and the first step before ``stop`` that sets the units behind a block delete ``/``.
+    Such a block sets nothing for certain: with the switch on, the control skips it, and the
+    blocks added after it would be read in the units it was left in."""
     table = G.SYSTEMS[system]
-    units = plane = stop = None
+    units = plane = stop = skippable = None
     for step in steps:
         codes = step.block.codes
         if step.moves or any(letter == "T" for letter, _ in codes):
             stop = step
             break
         if step.block.delete is not None:
+            if skippable is None and _sets_units(step, system):
+                skippable = step
             continue
         if units is None and _sets_units(step, system):
             units = step
@@ -523,8 +535,8 @@ def _units_and_plane(steps, system: str) -> tuple[Step | None, Step | None]:
             if entry is not None and entry[1] == G.PLANE_ZX and plane is None:
                 plane = step
     if units is not None and plane is not None and plane.block.line > units.block.line:
-        return plane, stop
-    return units, stop
+        return plane, stop, skippable
+    return units, stop, skippable
 
 
 def _unplannable_lines(unplannable: list[tuple[int, str]], shown: int = 10) -> list[str]:

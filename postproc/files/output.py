@@ -196,9 +196,7 @@ class Spool:
                 self._name()
             _keep_mode(self.path, self.target.path)
             if new:
-                os.link(self.path, self.target.path)  # fails where any file stands: never over it
-                os.unlink(self.path)
-                self.path = None
+                self._make_new()
             else:
                 os.replace(self.path, self.target.path)
             self.file.close()
@@ -209,6 +207,40 @@ class Spool:
             self.discard()
             raise OutputError(f"cannot write output: {explain(exc)}", self.where) from None
         self._done = True
+
+    def _make_new(self) -> None:
+        """Give the spool the destination's name only where no file stands: a hard link, which
+        fails where any file stands, even one made since the run began. File systems without
+        hard links (FAT and exFAT memory sticks, many SMB shares) refuse the link itself
+        (:data:`_NO_HARD_LINKS`): there the destination is created exclusively (``O_EXCL``, which
+        fails as the link does where a file stands) and the spool copied into it; a copy that
+        fails takes away the file it made, so nothing is left behind."""
+        try:
+            os.link(self.path, self.target.path)
+        except OSError as exc:
+            if exc.errno not in _NO_HARD_LINKS:
+                raise
+            self._copy_new()
+        os.unlink(self.path)
+        self.path = None
+
+    def _copy_new(self) -> None:
+        fd = os.open(self.target.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0), 0o666)
+        try:
+            self.file.seek(0)
+            while chunk := self.file.read(1 << 20):
+                view = memoryview(chunk)
+                while view:
+                    view = view[os.write(fd, view):]
+            os.fsync(fd)
+        except BaseException:
+            _close_quietly(fd)
+            try:
+                os.unlink(self.target.path)  # the file this run made, never one of the user's
+            except OSError:
+                pass
+            raise
+        _close_quietly(fd)
 
     def _copy_out(self) -> None:
         """Copy the spool to stdout or through to a device, a FIFO or a descriptor link.
@@ -299,12 +331,25 @@ class Spool:
             self.discard()
 
 
+def _close_quietly(fd: int) -> None:
+    """Close ``fd``: the descriptor is released even when close reports an error, and what was
+    written has already been made safe (fsync) or is being taken away."""
+    try:
+        os.close(fd)
+    except OSError:
+        pass
+
+
 def _descriptor(stream) -> int | None:
     try:
         return stream.fileno()
     except (AttributeError, OSError, ValueError):
         return None
 
+
+#: what link() says on a file system that has no hard links (FAT, exFAT, many SMB shares...)
+_NO_HARD_LINKS = frozenset({errno.EPERM, errno.EOPNOTSUPP, getattr(errno, "ENOTSUP", errno.EOPNOTSUPP),
+                            errno.EXDEV, errno.ENOSYS, errno.EMLINK})
 
 PARTIAL = ".partial"  #: the suffix of a spool copy while it is written (see Spool._name)
 

@@ -78,24 +78,33 @@ class ContourCycles:
             self._location(block, self._col(block, "P")))
 
     def _label_line(self, block: Block, letter: str, label: int, name: str) -> int:
-        count = self.labels.counts.get(label, 0)
-        if count == 0:
+        """The line of the block N``label`` that the cycle's P or Q names. The control looks for
+        it only in the program that runs the cycle (its O number to its M30, M02 or M99): an N
+        of the same number in another program of the file is not found there (PS0060), and two
+        in the program make the contour ambiguous."""
+        if self.labels.counts.get(label, 0) == 0:
             raise InterpretationError(
                 f"{name} {letter}{label}: no block N{label} in the program (FANUC alarm PS0060)",
                 self._location(block, self._col(block, letter)),
             )
-        if count > 1:
-            lines = self.labels.in_program_of(label, block.line)  # each program of the file numbers its own blocks
-            if len(lines) == 1:
-                return lines[0]
-            lines = lines if len(lines) > 1 else self.labels.lines[label]
-            count = len(lines)
+        lines = self.labels.in_program_of(label, block.line)  # each program of the file numbers its own blocks
+        if not lines:
+            program, first, last = self.labels.program_of(block.line)
+            elsewhere = self.labels.lines[label]
+            span = f"lines {first} to {last}" if last is not None else f"line {first} to the end"
             raise InterpretationError(
-                f"{name} {letter}{label}: N{label} stands on {count} blocks (lines {lines[0]}, {lines[1]}...); "
+                f"{name} {letter}{label}: no block N{label} in {program} ({span}), the program that runs the cycle; "
+                f"N{label} stands only outside it (line {elsewhere[0]}{', ...' if len(elsewhere) > 1 else ''}), where "
+                f"the control does not look (FANUC alarm PS0060): give the contour's blocks these numbers in {program}",
+                self._location(block, self._col(block, letter)),
+            )
+        if len(lines) > 1:
+            raise InterpretationError(
+                f"{name} {letter}{label}: N{label} stands on {len(lines)} blocks (lines {lines[0]}, {lines[1]}...); "
                 "the contour is ambiguous",
                 self._location(block, self._col(block, letter)),
             )
-        return self.labels.lines[label][0]
+        return lines[0]
 
     def _start_expected_contour(self, block: Block) -> None:
         contour, modal, start, name, meaning = self._expect

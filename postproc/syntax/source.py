@@ -29,7 +29,11 @@ _LABEL = re.compile(rb"(?m)^[ \t]*(?:/[1-9]?[ \t]*)?[Nn][ \t]*(\d+)")
 # A program's start in a file that holds several (a main program and its local subprograms):
 # O1234, :1234 or <NAME> opening a line. The control looks for a cycle's P and Q in the program
 # that runs it, so each program may number its blocks N10, N20... again.
-_PROGRAM = re.compile(rb"(?m)^[ \t%]*(?:[Oo:][ \t]*\d|<)")
+_PROGRAM = re.compile(rb"(?m)^[ \t%]*([Oo:][ \t]*\d[\d \t]*|<[^>\r\n]*>?)")
+# A program's end: M30, M02 or M99 in a block that no block delete may skip, before any comment.
+# A cycle's P and Q are looked for from the program's O number to the first end at or after the
+# cycle (an M99 before it may be a conditional return).
+_END = re.compile(rb"(?m)^(?![ \t]*/)[^(;\r\n]*?[Mm][ \t]*(?:0[ \t]*)*(?:3[ \t]*0|2|9[ \t]*9)(?![ \t]*\d)")
 # Searched in lower-cased text, each starting with a literal: an alternation or a
 # case-blind pattern would be tried at every G of the program.
 _GOTO = re.compile(rb"goto[ \t]*(\d+|[#\[])")
@@ -63,11 +67,15 @@ class LabelIndex:
         self._scan = scan
         self._lines: dict[int, list[int]] | None = None if scan else {}
         self._counts: dict[int, int] | None = None if scan else {}
-        self._programs: list[int] = []
+        self._programs: list[int] = []  # the line of each program's O number (or <NAME>)
+        self._names: list[str] = []  # and that number or name, as written
+        self._ends: list[int] = []  # the lines of the blocks that end a program (M30, M02, M99)
 
     def _labels(self) -> None:
         if self._lines is None:
-            self._lines, self._counts, self._programs = self._scan()
+            self._lines, self._counts, programs, self._ends = self._scan()
+            self._programs = [line for line, _ in programs]
+            self._names = [name for _, name in programs]
 
     @property
     def lines(self) -> dict[int, list[int]]:
@@ -75,12 +83,26 @@ class LabelIndex:
         self._labels()
         return self._lines
 
-    def in_program_of(self, label: int, line: int) -> list[int]:
-        """The lines of the blocks carrying ``label`` in the program (O number to O number) that
-        holds ``line``."""
+    def program_of(self, line: int) -> tuple[str, int, int | None]:
+        """The program that runs the block on ``line``: its name (``O0002``, ``<NAME>``, or the
+        line it starts on when it has no O number), its first line, and its last (None: the end
+        of the file). It runs from its O number to its first end (M30, M02, M99) at or after
+        ``line``, and at most to the next O number."""
         self._labels()
         here = bisect.bisect_right(self._programs, line)
-        return [place for place in self._lines.get(label, ()) if bisect.bisect_right(self._programs, place) == here]
+        first = self._programs[here - 1] if here else 1
+        last = self._programs[here] - 1 if here < len(self._programs) else None
+        end = bisect.bisect_left(self._ends, line)
+        if end < len(self._ends) and (last is None or self._ends[end] <= last):
+            last = self._ends[end]
+        name = self._names[here - 1] if here else f"the program from line {first}"
+        return name, first, last
+
+    def in_program_of(self, label: int, line: int) -> list[int]:
+        """The lines of the blocks carrying ``label`` in the program that runs the block on
+        ``line`` (:meth:`program_of`): the control looks for a cycle's P and Q there only."""
+        _, first, last = self.program_of(line)
+        return [place for place in self._lines.get(label, ()) if first <= place and (last is None or place <= last)]
 
     @property
     def counts(self) -> dict[int, int]:
@@ -224,29 +246,36 @@ class Source:
                         computed = True
         return LabelIndex(targets, computed, calls, scan=self._label_places)
 
-    def _label_places(self) -> tuple[dict[int, list[int]], dict[int, int], list[int]]:
-        """Scan the whole program, a chunk at a time, for the lines of its sequence numbers and
-        of the program numbers that start each program the file holds."""
+    def _label_places(self) -> tuple[dict[int, list[int]], dict[int, int], list[tuple[int, str]], list[int]]:
+        """Scan the whole program, a chunk at a time, for the lines of its sequence numbers, of
+        the program numbers that start each program the file holds (with the number), and of the
+        blocks that end a program."""
         lines: dict[int, list[int]] = {}
         counts: dict[int, int] = {}
-        programs: list[int] = []
+        programs: list[tuple[int, str]] = []
+        ends: list[int] = []
         line = 1
         for chunk in self.chunks():
-            found = [(match.start(), match) for match in _LABEL.finditer(chunk)]
-            found += [(match.start(), None) for match in _PROGRAM.finditer(chunk)]
+            found = [(match.start(), "label", match) for match in _LABEL.finditer(chunk)]
+            found += [(match.start(1), "program", match) for match in _PROGRAM.finditer(chunk)]
+            found += [(match.start(), "end", match) for match in _END.finditer(chunk)]
             found.sort(key=lambda item: item[0])
             last = 0
-            for start, match in found:
+            for start, kind, match in found:
                 line += count_lines(chunk, last, start)
                 last = start
-                if match is None:
-                    programs.append(line)
+                if kind == "program":
+                    name = match.group(1).decode("ascii", "replace")
+                    programs.append((line, "O" + re.sub(r"[ \t]", "", name[1:]) if name[0] in "Oo:" else name))
+                    continue
+                if kind == "end":
+                    ends.append(line)
                     continue
                 label = int(match.group(1))
                 counts[label] = counts.get(label, 0) + 1
                 lines.setdefault(label, []).append(line)
             line += count_lines(chunk, last, len(chunk))
-        return lines, counts, programs
+        return lines, counts, programs, ends
 
     def chunks(self, size: int = 1 << 20) -> Iterator[bytes]:
         """The file in pieces that end at a line ending, so that no line is split."""

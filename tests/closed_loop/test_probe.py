@@ -324,9 +324,14 @@ def test_the_wear_offset_block_takes_the_programs_line_ending(tool_set, tmp_path
 @pytest.mark.parametrize("opening, problem", [
     ("G18 G40 G99\nT0101\n", "sets no units (G20/G21) before its first tool call or move"),
     ("T0101\nG18 G21 G40 G99\n", "sets no units (G20/G21) before its first tool call or move"),
-    # with the block delete switch on, the control skips the units: a G10 after them would be read in any
-    ("/G18 G21 G40 G99\nT0101\n", "sets no units (G20/G21) before its first tool call or move"),
-    ("/2 G21\nG18 G40 G99\nT0101\n", "sets no units (G20/G21) before its first tool call or move"),
+    # with the block delete switch on, the control skips the units: a G10 after them would be read in any;
+    # the message names the block that sets them and its switch, not a program without units
+    ("/G18 G21 G40 G99\nT0101\n", ":4:1: error: the program sets its units (G20/G21) only in a block behind the "
+                                  "block delete '/', which the control skips with the block delete switch on"),
+    ("/2 G21\nG18 G40 G99\nT0101\n", ":4:1: error: the program sets its units (G20/G21) only in a block behind "
+                                      "the block delete '/2'"),
+    ("G18 G40 G99\n/G20\n/G21\nT0101\n", ":5:1: error: the program sets its units (G20/G21) only in a block "
+                                         "behind the block delete '/'"),
     ("G18 G40 G99\nG21 G00 X200. Z100.\nT0101\n", "before its first tool call or move (it sets them in that block: "
                                                   "the opening blocks go before the tool moves or is called)"),
 ])

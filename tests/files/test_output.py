@@ -319,3 +319,99 @@ def test_a_full_disk_is_a_clear_error_and_leaves_nothing_whatever_the_command(tm
             f"{HEMISHELL}: error: cannot keep a copy of the program in ")
     assert result.stderr.startswith(said) and "no space left for it" in result.stderr, result.stderr
     assert result.stderr.count("error:") == 1 and list(folder.iterdir()) == []
+
+
+# ------------------------------------------------ a new file where the file system has no hard links
+
+#: what link() says on FAT and exFAT memory sticks, SMB shares and other file systems without hard links
+_NO_HARD_LINKS = ["EPERM", "EOPNOTSUPP", "EXDEV", "ENOSYS", "EMLINK"]
+
+
+def _links_refused(monkeypatch, name: str) -> None:
+    import errno
+
+    def refuse(*_args, **_kwargs):
+        raise OSError(getattr(errno, name), os.strerror(getattr(errno, name)))
+
+    monkeypatch.setattr(os, "link", refuse)
+
+
+def _new_spool(path, data: bytes):
+    from postproc.files.output import Spool
+
+    spool = Spool(str(path))
+    spool.write(data)
+    return spool
+
+
+@pytest.mark.parametrize("name", _NO_HARD_LINKS)
+def test_a_new_file_is_made_where_the_file_system_has_no_hard_links(monkeypatch, tmp_path, name):
+    """A new file (profile init) was made by a hard link, which FAT, exFAT and many SMB shares
+    refuse: there it is created exclusively and the content copied in, with the usual mode of a
+    new file and no spool left beside it."""
+    _links_refused(monkeypatch, name)
+    target = tmp_path / "lathe.toml"
+    data = b"[machine]\n" * 20000  # more than one chunk of the copy
+    with _new_spool(target, data) as spool:
+        spool.commit(new=True)
+    assert target.read_bytes() == data
+    umask = os.umask(0)
+    os.umask(umask)
+    assert stat.S_IMODE(target.stat().st_mode) == 0o666 & ~umask
+    assert list(tmp_path.iterdir()) == [target]
+
+
+@pytest.mark.parametrize("name", _NO_HARD_LINKS)
+def test_a_file_standing_where_a_new_one_goes_is_never_overwritten_without_hard_links(monkeypatch, tmp_path, name):
+    """A file made at the destination while the run went on is kept, links or not."""
+    _links_refused(monkeypatch, name)
+    target = tmp_path / "lathe.toml"
+    with _new_spool(target, b"new\n") as spool:
+        target.write_bytes(b"the user's own\n")
+        with pytest.raises(FileExistsError):
+            spool.commit(new=True)
+    assert target.read_bytes() == b"the user's own\n" and list(tmp_path.iterdir()) == [target]
+
+
+def test_a_copy_that_fails_without_hard_links_leaves_nothing(monkeypatch, tmp_path):
+    """A disk that fills while the new file is copied: the error says so, and neither the
+    half-written file nor the spool is left."""
+    import errno
+
+    from postproc.diagnostics import OutputError
+
+    _links_refused(monkeypatch, "EPERM")
+
+    def full(*_args):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    target = tmp_path / "lathe.toml"
+    with _new_spool(target, b"[machine]\n") as spool:
+        monkeypatch.setattr(os, "write", full)
+        with pytest.raises(OutputError, match="no space left for it"):
+            spool.commit(new=True)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_link_that_fails_for_another_reason_is_an_error_not_a_copy(monkeypatch, tmp_path):
+    """Only a file system without hard links is worked around; any other failure of the link is
+    said, and nothing is made."""
+    from postproc.diagnostics import OutputError
+
+    _links_refused(monkeypatch, "EIO")
+    target = tmp_path / "lathe.toml"
+    with _new_spool(target, b"[machine]\n") as spool:
+        with pytest.raises(OutputError):
+            spool.commit(new=True)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_profile_init_writes_its_profile_without_hard_links(monkeypatch, run, tmp_path):
+    _links_refused(monkeypatch, "EPERM")
+    target = tmp_path / "lathe.toml"
+    result = run("profile", "init", str(target))
+    assert result.exit_code == 0, result.stderr
+    assert result.stdout == "" and "starter machine profile written" in result.stderr
+    assert target.read_text().startswith("#") and list(tmp_path.iterdir()) == [target]
+    again = run("profile", "init", str(target))
+    assert again.exit_code == 2 and "never overwrites" in again.stderr

@@ -446,3 +446,42 @@ def test_each_program_of_a_file_numbers_its_own_contour_blocks():
     assert [(m.line, m.x1, m.z1) for m in finish][-3:] == [(13, 20.0, -20.0), (14, 20.0, -22.0), (15, 26.0, -22.0)]
     with pytest.raises(InterpretationError, match="N10 stands on 2 blocks"):
         moves(main.replace("M98 P0002\n", "N10 M08\n"))
+
+
+_MAIN = "O0001\nG18 G21 G99\nG00 X52. Z2.\nG71 U2. R1.\nG71 P10 Q20 U0.4 W0.1 F0.25\n"
+_CONTOUR = "N10 G00 X20.\nG01 Z0. F0.1\nN20 G01 X52.\n"
+
+
+@pytest.mark.parametrize("text, program, span, elsewhere", [
+    # the contour only in the subprogram: once in the file, but not in the program that runs the cycle
+    (_MAIN + "G00 Z2.\nM98 P0002\nM30\nO0002\n" + _CONTOUR + "M99\n", "O0001", "lines 1 to 8", "line 10"),
+    # in two other programs: not found, not ambiguous
+    (_MAIN + "M30\nO0002\n" + _CONTOUR + "M99\nO0003\n" + _CONTOUR + "M99\n", "O0001", "lines 1 to 6",
+     "line 8, ..."),
+    # after the program's M30, with no O number of its own: past the program's end
+    (_MAIN + "G00 Z2.\nM30\n" + _CONTOUR, "O0001", "lines 1 to 7", "line 8"),
+    # a cycle in the subprogram whose contour is in the main program
+    ("O0001\nG18 G21 G99\n" + _CONTOUR + "M98 P0002\nM30\nO0002\nG00 X52. Z2.\nG71 U2. R1.\n"
+     "G71 P10 Q20 U0.4 W0.1 F0.25\nM99\n", "O0002", "lines 8 to 12", "line 3"),
+])
+def test_a_cycle_finds_its_contour_only_in_the_program_that_runs_it(text, program, span, elsewhere):
+    """The control looks for a cycle's P and Q in the program that runs it, from its O number
+    to its M30, M02 or M99, and alarms PS0060 when they stand only elsewhere: a label that
+    stood once in the file was used from another program, and one that stood in two other
+    programs was called ambiguous."""
+    with pytest.raises(InterpretationError) as caught:
+        moves(text)
+    message = caught.value.message
+    assert message.startswith(f"G71 P10: no block N10 in {program} ({span}), the program that runs the cycle; "
+                               f"N10 stands only outside it ({elsewhere})"), message
+    assert "(FANUC alarm PS0060)" in message and "ambiguous" not in message
+    assert caught.value.location.line == text.splitlines().index("G71 P10 Q20 U0.4 W0.1 F0.25") + 1
+
+
+def test_a_return_before_the_cycle_or_behind_a_block_delete_does_not_end_its_program():
+    """An M99 before the cycle (a conditional return) or behind '/' (skippable) is no end of the
+    program for the cycle's P and Q: the contour before and after them is found."""
+    text = ("O0001\nG18 G21 G99\nM98 P0002\nM30\nO0002\nIF [#1 EQ 1] GOTO 5\nM99\nN5\n" + _CONTOUR
+            + "/M99\nG00 X52. Z2.\nG70 P10 Q20\nM99\n")
+    finish = [m for m in moves(text) if m.line in (9, 10, 11)]
+    assert [(m.line, m.x1, m.z1) for m in finish][-3:] == [(9, 10.0, 2.0), (10, 10.0, 0.0), (11, 26.0, 0.0)]  # radii

@@ -57,3 +57,24 @@ def test_m99_p_and_m98_q_targets_are_jump_targets_whatever_the_spacing():
         assert labels.goto_targets == {100, 200, 600, 700, 800, 900, 1100, 1200, 1300}
         assert labels.computed_goto  # M99 P#3: any label may be the target
         assert labels.calls == {2000: 1, 9000: 1, 5000: 1}
+
+
+def test_each_program_runs_from_its_number_to_its_first_end_after_a_block():
+    """The program that runs a block (where a cycle's P and Q are looked for): from its O number
+    (``:`` number, ``<NAME>``) to its first M30, M02 or M99 at or after the block, at most to the
+    next program; an end in a comment, behind '/', or a longer M code (M300, M990) ends nothing."""
+    text = ("%\nG00 X1.\nM30\n"             # 2-3: before any O number
+            "O 1000 (M30 IN A COMMENT)\nM300\n/M30\nM990\nN10 X2.\nM 0 2\nN10 X3.\n"  # 4-10
+            ":2000\nM99\nN20 X4.\nM99\n"     # 11-14
+            "<PART_B>\nN30 X5.\n%\n")        # 15-17
+    with Source.from_text(text, "t.nc") as source:
+        labels = source.labels
+        assert labels.program_of(2) == ("the program from line 1", 1, 3)
+        assert labels.program_of(5) == ("O1000", 4, 9)
+        assert labels.program_of(10) == ("O1000", 4, 10)  # past the M02: up to the next program
+        assert labels.program_of(11) == ("O2000", 11, 12)
+        assert labels.program_of(13) == ("O2000", 11, 14)  # an M99 before the block is no end of it
+        assert labels.program_of(16) == ("<PART_B>", 15, None)
+        assert labels.in_program_of(10, 5) == [8] and labels.in_program_of(10, 10) == [8, 10]
+        assert labels.in_program_of(20, 11) == [] and labels.in_program_of(20, 13) == [13]
+        assert labels.in_program_of(30, 2) == [] and labels.in_program_of(30, 16) == [16]
