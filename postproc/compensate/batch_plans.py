@@ -188,8 +188,9 @@ class _Batch:
         self.rising = (least > 0.0).tolist()
 
     def _ends(self) -> None:
-        """The target's ends on the grid (:meth:`Grid.snap`, the segmenter's vertices) and the
-        chord between them (as :meth:`Segmenter.arc` works them out)."""
+        """The target's ends on the grid (:meth:`Grid.snap`, the segmenter's vertices), how far
+        they lie off the target, and the chord between them (as :meth:`Segmenter.arc` works
+        them out), once for the line tried first and the arcs after it."""
         last = self.starts + self.counts - 1
         first_x, first_z = self.points[self.starts].T
         last_x, last_z = self.points[last].T
@@ -202,7 +203,10 @@ class _Batch:
         with np.errstate(all="ignore"):
             self.half = np.sqrt(chord_x * chord_x + chord_z * chord_z) / 2.0
             self.normal = (-chord_z / (2.0 * self.half), chord_x / (2.0 * self.half))
-        self.ends_of = (first_x.tolist(), first_z.tolist(), last_x.tolist(), last_z.tolist())
+        self.ends_off = np.full(self.count, math.inf)  # Segmenter._ends_off: how far they lie off the target
+        for k in np.flatnonzero(self.live).tolist():
+            self.ends_off[k] = max(math.dist((float(ax[k]), float(az[k])), (float(first_x[k]), float(first_z[k]))),
+                                   math.dist((float(bx[k]), float(bz[k])), (float(last_x[k]), float(last_z[k]))))
 
     def _lines_first(self) -> None:
         """:meth:`Segmenter.single_line` of the targets whose chord may follow them: the line
@@ -221,12 +225,10 @@ class _Batch:
         z = z0 + s * (self.b[1][rows] - self.a[1][rows]).repeat(counts)
         cx, cz, mid, forward, half, r = (self.frame[rows, k].repeat(counts) for k in range(6))
         u, v = _arc_uv(x - cx, z - cz, mid, forward > 0.0, half, r)
-        firsts_x, firsts_z, lasts_x, lasts_z = self.ends_of
         ends = np.cumsum(counts).tolist()
         for k, a, b in zip(which, [0] + ends[:-1], ends):
             target_rows = slice(self.starts[k], self.starts[k] + self.counts[k])
-            off = max(math.dist((ax[k], az[k]), (firsts_x[k], firsts_z[k])),
-                      math.dist((bx[k], bz[k]), (lasts_x[k], lasts_z[k])))
+            off = float(self.ends_off[k])
             deviation = max(_deviation(self.u[target_rows], self.v[target_rows], u[a:b], v[a:b], True, self.rising[k]),
                             off)
             if deviation <= self.tol[k]:
@@ -302,7 +304,7 @@ class _Batch:
     def _candidates(self) -> None:
         """The candidate cuts of :meth:`Segmenter.arc`: the rounded centres in the order the segmenter's set of
         them gives, less those the radius check refuses and one on the start point, with the
-        ring of each; and how far the ends lie off the target (:meth:`Segmenter._ends_off`)."""
+        ring of each."""
         live = np.flatnonzero(self.live)
         unit = self.unit[live]
         scale = 10.0**self.decimals[live]
@@ -310,11 +312,9 @@ class _Batch:
         ax, az = self.a[0][live], self.a[1][live]
         x_down, x_up = ax + np.floor(ix) / scale * unit, ax + np.ceil(ix) / scale * unit  # Grid.offset_of
         z_down, z_up = az + np.floor(kz) / scale * unit, az + np.ceil(kz) / scale * unit
-        firsts_x, firsts_z, lasts_x, lasts_z = self.ends_of
         rows = zip(live.tolist(), ax.tolist(), az.tolist(), self.b[0][live].tolist(), self.b[1][live].tolist(),
                    x_down.tolist(), x_up.tolist(), z_down.tolist(), z_up.tolist())
         owner, centres, rings = [], [], []
-        ends = np.full(self.count, math.inf)
         hypot = math.hypot
         for k, a_x, a_z, b_x, b_z, xd, xu, zd, zu in rows:
             radius_tolerance = self.limits[k].arc_radius_tolerance
@@ -328,15 +328,11 @@ class _Batch:
                 centres.append((x, z))
                 rings.append((r0, r1) if r0 <= r1 else (r1, r0))
                 kept += 1
-            if kept:
-                ends[k] = max(math.dist((a_x, a_z), (firsts_x[k], firsts_z[k])),
-                              math.dist((b_x, b_z), (lasts_x[k], lasts_z[k])))
-            else:
+            if not kept:
                 self.live[k] = False
         self.owner = np.array(owner, dtype=np.int64)
         self.centres = np.array(centres).reshape(-1, 2)
         self.rings = np.array(rings).reshape(-1, 2)
-        self.ends_off = ends
 
     def _bounds(self) -> None:
         """:meth:`Segmenter._radial_bounds` of every candidate, and the order each target's
