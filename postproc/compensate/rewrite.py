@@ -3,7 +3,9 @@
 The rewriter streams the interpreted steps in batches (a bounded look-ahead): the pieces of
 a batch's moves are corrected in one call, then the steps go through a window of one motion
 step and the non-motion steps after it. When the next motion step arrives, the join between
-the two is settled, then the window is written out:
+the two is settled, then the window is written out (past WINDOW non-motion steps the motion
+step goes back to its nominal end and the window is written at once, so that memory stays
+flat):
 
 - a move whose start moved (its correction is not zero there) gets the previous move's
   end point moved to meet it when that move is a plain line or rapid (as the source's
@@ -55,9 +57,12 @@ from .self_check import SelfCheck
 from .writing import Writing
 
 __all__ = ["BATCH", "Corrector", "Edit", "Entry", "KEEP", "MACRO_VALUES", "NAMED", "NUMBERS", "Piece", "REFUSE",
-           "Rewriter", "STEPS", "macro_word", "pieces", "sample_lines", "travel_after", "_travel", "_turns"]
+           "Rewriter", "STEPS", "WINDOW", "macro_word", "pieces", "sample_lines", "travel_after", "_travel", "_turns"]
 
 BATCH = 256  #: steps read ahead so that their pieces are corrected in one call
+#: Non-motion steps held behind a motion step, at most, before its join is settled without the
+#: next move (the tool back to the nominal end): memory stays flat however long the stretch
+WINDOW = 4096
 
 
 #: The corrections wanted for a run of pieces, in order: an (n, 2) array or None for each.
@@ -96,6 +101,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
         self._pending: list[Entry] | None = None  # a G71/G72 contour's entries, held until its last block is read
         self._window: list[Entry] = []  # the last motion step and the steps after it, not yet written
         self._previous: Entry | None = None  # the last motion step
+        self._settled: Entry | None = None  # the last motion step, written, ending at its nominal end
         self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
         self._checker: Interpreter | None = None  # reads replacements back (the self-check)
         self._grids: dict[bool, Grid] = {}  # by inch
@@ -109,7 +115,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
     # ------------------------------------------------------------------ streaming
 
     def run(self) -> Iterator[str]:
-        self._window, self._previous, self._pending = [], None, None
+        self._window, self._previous, self._pending, self._settled = [], None, None, None
         self.mode_now = self.original_mode = None
         others = bool(self._others)
         one_way = monotone.ONE_WAY_CYCLES
@@ -127,6 +133,8 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
                         yield from self._release()
                 elif entry.refusal is None and not entry.motion and not step.names_position:
                     self._window.append(entry)
+                    if len(self._window) > WINDOW and self._settles_early(self._previous):
+                        yield from self._flush(self._settle_window())
                 else:
                     for waiting in self._take(entry):  # each written as its lines are asked for
                         yield from write(waiting)
@@ -173,9 +181,10 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
         if entry.refusal is not None:
             raise entry.refusal
         if not entry.motion:
-            if entry.step.names_position and self._previous is not None:
-                self._back_to_nominal(self._previous)  # the frame it names is the program's, not a corrected one
-                self._previous = None
+            if entry.step.names_position:
+                if self._previous is not None:
+                    self._back_to_nominal(self._previous)  # the frame it names is the program's, not a corrected one
+                self._previous = self._settled = None
             self._window.append(entry)
             return []
         if entry.edited:
@@ -184,7 +193,31 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
                 self._hold_plans(entry)
         if self._previous is not None:
             self._join(self._previous, entry)
-        window, self._window, self._previous = self._window, [entry], entry
+        elif self._settled is not None:
+            self._join(self._settled, entry)
+        window, self._window, self._previous, self._settled = self._window, [entry], entry, None
+        return window
+
+    def _settles_early(self, previous: Entry | None) -> bool:
+        """Whether the window's join may be settled before the next move is read: always with no
+        motion step in it; otherwise only for a move whose end may go back to nominal with a
+        connecting G01 (not a cycle's contour, a corner the control rounds with the next move, or
+        a block that also moves another axis, which is never split)."""
+        if previous is None:
+            return True
+        return not (previous.step.in_contour or previous.step.contour_end or previous.moving is not None
+                    or self._has_corner(previous.step.block))
+
+    def _settle_window(self) -> list[Entry]:
+        """The window, to be written now: its motion step goes back to its nominal end (as
+        before a block that names the position), and the next move is joined from there as if
+        from a move left as it was."""
+        previous = self._previous
+        if previous is not None:
+            self._back_to_nominal(previous)
+            self._settled = Entry(previous.step, [None] * len(previous.step.moves), kept=True)
+            self._previous = None
+        window, self._window = self._window, []
         return window
 
     def _release(self) -> Iterator[str]:

@@ -515,3 +515,86 @@ def test_a_block_that_names_where_the_tool_stands_finds_it_at_the_nominal_end(sy
     assert before[3] != "X40. Z-10."  # the move before it was corrected
     ends = [m for m in moves("\n".join(before) + "\n", gcode_system=system) if m.kind == LINE]
     assert ((ends[-1].x1, ends[-1].z1) == pytest.approx((20.0, -10.0))) == names
+
+
+def _stretch(text: str, monkeypatch, window: int = 8, **options) -> tuple[str, int]:
+    """The program rewritten with a small window, and the most steps read ahead of the line
+    being written (what the rewriter holds in memory)."""
+    monkeypatch.setattr(rewrite_module, "WINDOW", window)
+    shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
+    read = [0]
+
+    def counted(steps):
+        for step in steps:
+            read[0] += 1
+            yield step
+
+    with Source.from_text(text, "t.nc") as source:
+        rewriter = Rewriter(counted(interpret_source(source, DEFAULT)), each(shift), DEFAULT, Request(**options),
+                            Reporter(), "t.nc")
+        out, ahead = [], 0
+        for line in rewriter.run():
+            out.append(line)
+            ahead = max(ahead, read[0] - len(out))
+        return "".join(out), ahead
+
+
+@pytest.mark.parametrize("filler", ["M08", "(A COMMENT)", "", "G04 X0.5", "M01", "S800"])
+def test_a_long_stretch_without_motion_is_written_as_it_is_read(filler, monkeypatch):
+    """A corrected move followed by thousands of blocks that move nothing (comments, M codes,
+    dwells, blank lines) is joined to the next move only through the window of steps after it:
+    past WINDOW of them, the move goes back to its nominal end and the window is written, so
+    memory stays flat however long the stretch. The next move is joined from that nominal end."""
+    stretch = 300
+    text = (f"G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nX40. Z-10.\n" + f"{filler}\n" * stretch +
+            "G01 X60. Z-30.\nX70.\nG00 X100.\n")
+    out, ahead = _stretch(text, monkeypatch, tolerance=0.001)
+    assert ahead < 8 + rewrite_module.BATCH + 8  # the window and one batch read ahead, never the whole stretch
+    lines = out.splitlines()
+    first = lines.index(filler)
+    assert lines[first:first + stretch] == [filler] * stretch  # each byte for byte, in order
+    path = [m for m in moves(out) if m.kind == LINE]
+    before = [m for m in path if m.line <= first]
+    after = [m for m in path if m.line > first + stretch]
+    assert before[-2].x1 != pytest.approx(20.0)  # the move was corrected (X in diameter, moves in radius),
+    assert (before[-1].x1, before[-1].z1) == pytest.approx((20.0, -10.0))  # then went back to its nominal end
+    assert (after[0].x0, after[0].z0) == pytest.approx((20.0, -10.0))
+    assert (after[0].x1, after[0].z1) != pytest.approx((20.0, -10.0))  # a lead-in to the next move's corrected start
+
+
+def test_a_short_stretch_without_motion_keeps_its_join(monkeypatch):
+    """Fewer than WINDOW blocks between two moves: the join is settled with the next move, as
+    ever (no move back to the nominal end)."""
+    text = "G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nX40. Z-10.\n" + "M08\n" * 5 + "G01 X60. Z-30.\nG00 X100.\n"
+    small, _ = _stretch(text, monkeypatch, window=8, tolerance=0.001)
+    large, _ = _stretch(text, monkeypatch, window=4096, tolerance=0.001)
+    assert small == large
+    assert not any(line.startswith("X40. Z-10.") for line in small.splitlines())
+
+
+@pytest.mark.parametrize("head, filler, tail", [
+    ("G01 Z0.\nX40. Z-10. ,C1.", "(A COMMENT)", "G01 X60. Z-30."),
+    ("G01 Z0.\nX40. Z-10. C30.", "M08", "G01 X60. Z-30."),
+    ("G71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\nN10 G00 X20.\nG01 Z-10.\nX30. Z-20.\nN20 X40.", "(C)", "G70 P10 Q20"),
+])
+def test_a_move_its_next_move_finishes_is_held_with_its_whole_stretch(head, filler, tail, monkeypatch):
+    """A corner the control rounds with the next move (,C ,R) and a block that also moves
+    another axis (never split) cannot be sent back to their nominal end, nor can the last block
+    of a cycle's contour (it must run one way): their stretch is held whole (for a corner,
+    comments and blank lines: anything else alarms, PS0051), and the program comes out as
+    with no limit."""
+    profile = replace(DEFAULT, axes=("X", "Z", "C"))
+    text = f"G18 G21 G99 F0.1\nG00 X42. Z5.\n{head}\n" + f"{filler}\n" * 40 + f"{tail}\nG00 X100.\n"
+
+    def run(window):
+        monkeypatch.setattr(rewrite_module, "WINDOW", window)
+        shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
+        with Source.from_text(text, "t.nc") as source:
+            rewriter = Rewriter(interpret_source(source, profile), each(shift), profile, Request(tolerance=0.001),
+                                Reporter(), "t.nc")
+            try:
+                return "".join(rewriter.run())
+            except Exception as exc:  # the same refusal either way
+                return repr(exc)
+
+    assert run(8) == run(4096)
