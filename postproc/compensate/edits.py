@@ -102,9 +102,23 @@ def _one_block_for_other_axes(entry: Entry, count: int, file: str, joined: bool 
         Location(file, block.line, word.col + 1, block.text), OTHER_AXIS, f"{cause} ({OTHER_AXIS})")
 
 
-#: M98/M99, M198 and G65/G66 (as the reader keys G codes; M as written, leading zero or not): a call or
-#: return, after which the other axes' places are unknown
-_CALLS = {("M", "98"), ("M", "098"), ("M", "99"), ("M", "099"), ("M", "198"), ("G", 650), ("G", 660)}
+#: M98/M99, M198 and G65/G66 (as written, leading zero or not): a call or return, after which the
+#: other axes' places are unknown
+_CALLS = {("M", "98"), ("M", "098"), ("M", "99"), ("M", "099"), ("M", "198"), ("G", "65"), ("G", "065"),
+          ("G", "66"), ("G", "066")}
+
+#: The limit a block meets when it calls or returns after a move whose end was corrected.
+CALL = "a call in the block"
+
+
+def call_word(block: Block) -> Word | None:
+    """The block's word that calls a program or returns from one (M98, M198, G65, G66, M99),
+    or None. The program it passes to runs from wherever the tool stands: it was written for
+    the nominal end of the move before it, and an incremental one would run shifted by that
+    move's correction."""
+    if block.fields is not None or not any(code in _CALLS for code in block.codes):  # canonical: no M, no G65
+        return None
+    return next(word for word in block.words if (word.letter, word.value) in _CALLS)
 
 #: The incremental address of another axis (FANUC G-code system A): H for C, V for Y.
 _INCREMENTAL_OF = {"H": "C", "V": "Y"}

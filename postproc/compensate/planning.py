@@ -12,10 +12,10 @@ import math
 import numpy as np
 
 from ..diagnostics import Location, UnplannableBlock
-from ..interpret.motion import ARC, LINE, RAPID, Step
+from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Step
 from ..machine.resolution import Grid
 from . import monotone
-from .edits import BLOCK_TIME, INTERFERENCE, Edit, Entry, _as_it_is, _one_block_for_other_axes, _rounded_up, _where
+from .edits import BLOCK_TIME, CALL, INTERFERENCE, Edit, call_word, Entry, _as_it_is, _one_block_for_other_axes, _rounded_up, _where
 from .segmenter import (LINE_MODE, RADIUS_CHECK, RESOLUTION, TOLERANCE, Cut, Limits, Plan, PlanError, Segmenter, Target,
                         plan)
 from .batch_plans import batch_plans
@@ -49,6 +49,9 @@ class Planning:
             if entry.moving is not None:  # the count matters only to a block that moves another axis too
                 _one_block_for_other_axes(entry, sum(len(plan.cuts) for edit in entry.edits if edit is not None
                                                      for plan in edit.plans), self.file)
+            call = call_word(step.block)
+            if call is not None:
+                self._called_from_nominal(entry, call)
         except UnplannableBlock as exc:
             if not self.request.keep_unplannable:
                 raise
@@ -56,6 +59,27 @@ class Planning:
             entry.kept = True
             self.unplannable.append((step.block.line, exc.limit))
             self.reporter.warn(f"block left uncompensated (--keep-unplannable): {exc.cause}", exc.location)
+
+    def _called_from_nominal(self, entry: Entry, word) -> None:
+        """A block that moves, then calls or returns (``G01 Z-10. M98 P1000``): the program it
+        passes to starts from the end of the move, which was written for the programmed end.
+        No move back to it can stand between the two, so a correction that moves that end
+        refuses the block (an incremental subprogram would run shifted by it)."""
+        step = entry.step
+        along = [index for index, move in enumerate(step.moves) if move.role in (RUN, CONTOUR, CORNER)]
+        if not along:
+            return
+        move, edit = step.moves[along[-1]], entry.edits[along[-1]]
+        nominal = (move.x1, move.z1)
+        if edit is None or None in nominal or self._snap(step, edit.end) == self._snap(step, nominal):
+            return
+        block = step.block
+        cause = (f"it calls or returns ({word.text}) after its move, and the correction moves the move's end, "
+                 f"where the program it passes to was written to start")
+        raise UnplannableBlock(
+            f"block cannot be compensated: {cause} ({CALL}); to go on, give the call a block of its own after the "
+            f"move, or --keep-unplannable to leave such blocks uncompensated",
+            Location(self.file, block.line, word.col + 1, block.text), CALL, f"{cause} ({CALL})")
 
     def _presolve(self, batch: list[Entry]) -> None:
         """The one-block plans of the batch's targets, worked out together (:mod:`.batch_plans`),

@@ -47,7 +47,7 @@ from . import monotone
 from .compensator import Piece
 from .emitter import Writer
 from .correcting import _ALONG, Correcting, STEPS, _travel, _turns, pieces, sample_lines, travel_after
-from .edits import _CALLS, _INCREMENTAL_OF, KEEP, MACRO_VALUES, NAMED, NUMBERS, REFUSE, Edit, Entry, macro_word
+from .edits import _CALLS, _INCREMENTAL_OF, KEEP, call_word, MACRO_VALUES, NAMED, NUMBERS, REFUSE, Edit, Entry, macro_word
 from .joining import Joining
 from .one_way import OneWayRule, _OneWay
 from .planning import Planning
@@ -67,6 +67,14 @@ WINDOW = 4096
 
 #: The corrections wanted for a run of pieces, in order: an (n, 2) array or None for each.
 Corrector = Callable[[list[Piece]], "list[np.ndarray | None]"]
+
+
+def _restarts(step: Step) -> bool:
+    """Whether what runs after the block starts from where the program left the tool: a block
+    that names the coordinates of where the tool stands (G50 X/Z, G92 in systems B and C, a
+    preset), or one that calls a program or returns from one (M98, M198, G65, G66, M99). The tool
+    goes back to the nominal end of a corrected move before it, and nothing is joined across it."""
+    return step.names_position or call_word(step.block) is not None
 
 
 class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
@@ -131,7 +139,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
                     self._pending.append(entry)
                     if step.contour_end or not step.in_contour:
                         yield from self._release()
-                elif entry.refusal is None and not entry.motion and not step.names_position:
+                elif entry.refusal is None and not entry.motion and not _restarts(step):
                     self._window.append(entry)
                     if len(self._window) > WINDOW and self._settles_early(self._previous):
                         yield from self._flush(self._settle_window())
@@ -181,9 +189,9 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
         if entry.refusal is not None:
             raise entry.refusal
         if not entry.motion:
-            if entry.step.names_position:
-                if self._previous is not None:
-                    self._back_to_nominal(self._previous)  # the frame it names is the program's, not a corrected one
+            if _restarts(entry.step):
+                if self._previous is not None:  # the frame it names, the program it calls, are the program's
+                    self._back_to_nominal(self._previous)
                 self._previous = self._settled = None
             self._window.append(entry)
             return []

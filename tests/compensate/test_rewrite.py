@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from support import SAMPLES
 from support.cycles import turn_backs
 from support.interpret import moves
-from postproc.diagnostics import InterpretationError, Reporter, SafetyError
+from postproc.diagnostics import InterpretationError, Reporter, SafetyError, UnplannableBlock
 from postproc.geometry import Arc
 from postproc.interpret.program import interpret_source
 from postproc.compensate import rewrite as rewrite_module
@@ -598,3 +598,38 @@ def test_a_move_its_next_move_finishes_is_held_with_its_whole_stretch(head, fill
                 return repr(exc)
 
     assert run(8) == run(4096)
+
+
+@pytest.mark.parametrize("call", ["M98 P1000", "M098 P1000 L2", "M198 P1000", "G65 P9010 A1.", "G66 P9010 A1.",
+                                  "M99", "N40 M99 P10"])
+def test_a_call_or_return_starts_from_the_nominal_end(call):
+    """A program called (M98, M198, G65, G66) or returned to (M99) after a corrected move runs
+    from where the tool stands: it was written for the move's nominal end, and an incremental
+    subprogram would run shifted by the correction. The tool goes back to the nominal end
+    first; the call is written as it was."""
+    text = f"G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nX40. Z-10.\n{call}\nG01 W-20.\nG00 X100.\n"
+    shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
+    out, _ = rewrite(text, shift, tolerance=0.001)
+    lines = out.splitlines()
+    before = lines[: lines.index(call)]
+    assert before[3] != "X40. Z-10."  # the move before it was corrected
+    ends = [m for m in moves("\n".join(before) + "\n") if m.kind == LINE]
+    assert (ends[-1].x1, ends[-1].z1) == pytest.approx((20.0, -10.0))
+
+
+@pytest.mark.parametrize("call", ["M98 P1000", "M99", "M198 P1000"])
+def test_a_move_that_calls_keeps_its_end_or_is_refused_at_the_call(call):
+    """``G01 X40. Z-10. M98 P1000``: the call runs from the end of the block's own move, and no
+    move back can stand between them, so a correction that moves that end refuses the block
+    at the call word (or leaves it as it is with keep_unplannable)."""
+    text = f"G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nX40. Z-10. {call}\nG01 W-20.\nG00 X100.\n"
+    shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
+    with pytest.raises(UnplannableBlock) as refused:
+        rewrite(text, shift, tolerance=0.001)
+    assert refused.value.location.line == 4 and refused.value.location.col == len("X40. Z-10. ") + 1
+    assert "give the call a block of its own" in str(refused.value)
+    out, rewriter = rewrite(text, shift, tolerance=0.001, keep_unplannable=True)
+    assert f"X40. Z-10. {call}" in out.splitlines() and rewriter.unplannable == [(4, "a call in the block")]
+    unmoved = lambda piece: None if piece.move.line != 3 else np.tile((0.003, -0.002), (len(piece.points), 1))
+    out, _ = rewrite(text, unmoved, tolerance=0.001)  # its end stays where it was: nothing to refuse
+    assert f"X40. Z-10. {call}" in out.splitlines()
