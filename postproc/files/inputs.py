@@ -131,23 +131,26 @@ def read_toml(path: str, limit: int, error: type[PostprocError], what: str) -> t
         raise error(f"nested too deeply to be {what}", Location(path)) from None
 
 
-def toml_key(path: str, text: str, key: str, table: str | None = None) -> Location:
-    """Where ``key`` is written in a TOML text (at the top, or in ``[table]``): its line and
-    column, with the line for the caret; a key at the top that names a table (``[key]``,
-    ``[key.sub]``, ``[[key]]``) where its header is; the file alone when it cannot be found (a
-    key in an inline table, say)."""
+def toml_key(path: str, text: str, key: str, table: str | None = None, occurrence: int = 1) -> Location:
+    """Where ``key`` is written in a TOML text (at the top, or in ``[table]``, the
+    ``occurrence``-th ``[[table]]`` of an array of tables): its line and column, with the line
+    for the caret; a key that names a table (``[key]``, ``[key.sub]``, ``[[key]]``) where its
+    header is; the file alone when it cannot be found (a key in an inline table, say)."""
     current = None
     opened = None
+    seen = 0  # headers of ``table`` passed
     pattern = re.compile(rf"^(\s*)(?:{re.escape(key)}|\"{re.escape(key)}\"|'{re.escape(key)}')\s*=")
+    named = key if table is None else f"{table}.{key}"
     for number, line in enumerate(text.splitlines(), 1):
         header = re.match(r"^\s*\[+\s*([^\]]+?)\s*\]", line)
         if header:
-            current = header.group(1).strip("\"'")
-            if opened is None and table is None and current.split(".")[0].strip().strip("\"'") == key:
+            current = ".".join(part.strip().strip("\"'") for part in header.group(1).split("."))
+            seen += current == table
+            if opened is None and (current == named or current.startswith(named + ".")):
                 opened = Location(path, number, header.start(1) + 1, line)
             continue
         found = pattern.match(line)
-        if found and current == table:
+        if found and current == table and (table is None or seen == occurrence):
             return Location(path, number, len(found.group(1)) + 1, line)
     return opened or Location(path)
 

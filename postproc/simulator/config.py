@@ -266,10 +266,16 @@ def load(path: str | None) -> tuple[Simulation, profiles.MachineProfile]:
 
 
 def from_table(table: Any, profile: profiles.MachineProfile = profiles.DEFAULT, origin: str = "<profile>") -> Simulation:
-    """Check a ``[simulation]`` table and fill in the defaults (straightness spans: soft limits)."""
+    """Check a ``[simulation]`` table and fill in the defaults (straightness spans: soft limits).
+    An error names the key's line and column in the profile it was read from."""
+    text = None
+    if profile.source is not None and profile.source == origin:
+        from ..files import inputs
+
+        text = inputs.read_toml(origin, profiles.MAX_BYTES, OptionError, "a machine profile")[1]  # read once a session
     if not isinstance(table, dict):
-        raise OptionError("'simulation' must be a table", Location(origin))
-    values = _fields(Simulation, table, "simulation", origin, tables=TABLES, lists={"term": Term})
+        raise OptionError("'simulation' must be a table", _at(origin, text, "simulation"))
+    values = _fields(Simulation, table, "simulation", origin, tables=TABLES, lists={"term": Term}, text=text)
     # Without soft limits in the profile, the V40R's travel (docs/methods.md §1) spans the bow.
     spans = {"x": profile.x_limits or (-5.0, 265.0), "z": profile.z_limits or (-450.0, 450.0)}
     for name in ("x", "z"):
@@ -280,8 +286,25 @@ def from_table(table: Any, profile: profiles.MachineProfile = profiles.DEFAULT, 
     return Simulation(**values, origin=origin)
 
 
+def _at(origin: str, text: str | None, name: str) -> Location:
+    """Where a key of the ``[simulation]`` table is written: ``simulation.x.backlash_mm``, or
+    ``simulation.term[2].axis`` in the second ``[[simulation.term]]``."""
+    if text is None:
+        return Location(origin)
+    from ..files.inputs import toml_key
+
+    *tables, key = name.split(".")
+    occurrence = 1
+    if key.endswith("]"):  # an item of an array of tables: its header
+        key = key.partition("[")[0]
+    elif tables and tables[-1].endswith("]"):  # a key of such an item: term[2]
+        tables[-1], _, index = tables[-1][:-1].partition("[")
+        occurrence = int(index)
+    return toml_key(origin, text, key, ".".join(tables) or None, occurrence)
+
+
 def _fields(cls, table: dict, where: str, origin: str, tables: dict | None = None,
-            lists: dict | None = None) -> dict[str, Any]:
+            lists: dict | None = None, text: str | None = None) -> dict[str, Any]:
     known = {f.name: f for f in dataclasses.fields(cls) if f.name != "origin"}
     tables, lists = tables or {}, lists or {}
     values: dict[str, Any] = {}
@@ -289,31 +312,30 @@ def _fields(cls, table: dict, where: str, origin: str, tables: dict | None = Non
         name = f"{where}.{key}"
         if key in tables:
             if not isinstance(value, dict):
-                raise OptionError(f"'{name}' must be a table", Location(origin))
-            values[key] = tables[key](**_fields(tables[key], value, name, origin))
+                raise OptionError(f"'{name}' must be a table", _at(origin, text, name))
+            values[key] = tables[key](**_fields(tables[key], value, name, origin, text=text))
         elif key in lists:
             if not (isinstance(value, list) and all(isinstance(item, dict) for item in value)):
-                raise OptionError(f"'{name}' must be an array of tables ([[{name}]])", Location(origin))
-            values[key] = tuple(lists[key](**_fields(lists[key], item, f"{name}[{index + 1}]", origin))
+                raise OptionError(f"'{name}' must be an array of tables ([[{name}]])", _at(origin, text, name))
+            values[key] = tuple(lists[key](**_fields(lists[key], item, f"{name}[{index + 1}]", origin, text=text))
                                 for index, item in enumerate(value))
         elif key in known and known[key].metadata:
-            values[key] = _checked(name, value, known[key].metadata, origin)
+            values[key] = _checked(name, value, known[key].metadata, _at(origin, text, name))
         else:
             from ..files.inputs import did_you_mean
 
             choices = sorted(k for k in known if k not in tables and k not in lists)
             raise OptionError(f"unknown key '{name}' in the machine profile{did_you_mean(key, choices)} "
-                              f"(known here: {', '.join(choices)})", Location(origin))
+                              f"(known here: {', '.join(choices)})", _at(origin, text, name))
     missing = [f.name for f in known.values() if f.metadata and f.metadata["rule"] != OPTIONAL
                and f.default is REQUIRED and f.name not in values]
     if missing:
-        raise OptionError(f"'{where}' needs {', '.join(repr(m) for m in missing)}", Location(origin))
+        raise OptionError(f"'{where}' needs {', '.join(repr(m) for m in missing)}", _at(origin, text, where))
     return values
 
 
-def _checked(name: str, value: Any, rule: dict, origin: str) -> Any:
+def _checked(name: str, value: Any, rule: dict, where: Location) -> Any:
     kind = rule["rule"]
-    where = Location(origin)
     if kind == COUNT:
         high = rule["high"]
         if not isinstance(value, int) or isinstance(value, bool) or value < rule["low"] or (high is not None and value > high):

@@ -305,24 +305,31 @@ def test_a_surface_file_reads_back_and_refuses_a_negative_radius(tmp_path):
 
 
 def test_the_sample_machine_loads_and_unknown_keys_are_refused_naming_the_file(tmp_path):
+    """Every refusal of the [simulation] table names the key's line and column, as the rest of
+    the profile's do: in a nested table, in the n-th [[simulation.term]], at a table's header."""
     sim, profile = load(MACHINE)
     assert sim.x.scaling == 8e-5 and sim.probe.datum_z_mm == 10.0 and profile.name == "okuma-howa-v40r-virtual"
     assert sim.x.straightness_span_mm == profile.x_limits
-    for text, message in (("[simulation.x]\nscalling = 1e-5\n",
-                           r"unknown key 'simulation.x.scalling' in the machine profile; did you mean 'scaling'\?"),
-                          ("[simulation]\nwobble = 1\n", "unknown key 'simulation.wobble'"),
-                          ("[simulation.z]\nbacklash_mm = -0.1\n", "'simulation.z.backlash_mm' cannot be negative"),
-                          ("[simulation.ballbar]\noversample = 1.5\n", "'simulation.ballbar.oversample' must be a whole"),
-                          ("[simulation]\nx = 3\n", "'simulation.x' must be a table"),
-                          ("[simulation]\nterm = 3\n", "'simulation.term' must be an array of tables"),
-                          ("[[simulation.term]]\naxis = \"y\"\nvalue_mm = 1\n", r"'simulation\.term\[1\]\.axis' must be \"x\" or \"z\""),
-                          ("[[simulation.term]]\naxis = \"x\"\n", r"'simulation\.term\[1\]' needs 'value_mm'"),
-                          ("[[simulation.term]]\naxis = \"x\"\nvalue_mm = 1\nz_power = 7\n",
-                           r"'simulation\.term\[1\]\.z_power' must be a whole number from 0 to 6")):
+    term = "[[simulation.term]]\naxis = \"x\"\nvalue_mm = 1\n"
+    for text, message, where in (
+            ("[simulation.x]\nscalling = 1e-5\n",
+             r"unknown key 'simulation.x.scalling' in the machine profile; did you mean 'scaling'\?", "2:1"),
+            ("[simulation]\nwobble = 1\n", "unknown key 'simulation.wobble'", "2:1"),
+            ("[simulation.z]\nbacklash_mm = -0.1\n", "'simulation.z.backlash_mm' cannot be negative", "2:1"),
+            ("[simulation.ballbar]\noversample = 1.5\n", "'simulation.ballbar.oversample' must be a whole", "2:1"),
+            ("[simulation]\nseed = 1\n  x = 3\n", "'simulation.x' must be a table", "3:3"),
+            ("[simulation]\nterm = 3\n", "'simulation.term' must be an array of tables", "2:1"),
+            ("[simulation.q]\na = 1\n", "unknown key 'simulation.q'", "1:2"),
+            ("simulation = 3\n", "'simulation' must be a table", "1:1"),
+            ("[[simulation.term]]\naxis = \"y\"\nvalue_mm = 1\n", r"'simulation\.term\[1\]\.axis' must be \"x\" or \"z\"", "2:1"),
+            (term + "[[simulation.term]]\nvalue_mm = 1\naxis = \"y\"\n", r"'simulation\.term\[2\]\.axis' must be", "6:1"),
+            ("[[simulation.term]]\naxis = \"x\"\n", r"'simulation\.term\[1\]' needs 'value_mm'", "1:3"),
+            ("[[simulation.term]]\naxis = \"x\"\nvalue_mm = 1\nz_power = 7\n",
+             r"'simulation\.term\[1\]\.z_power' must be a whole number from 0 to 6", "4:1")):
         path = write(tmp_path, "m.toml", text)
         with pytest.raises(OptionError, match=message) as caught:
             load(path)
-        assert str(caught.value).startswith(f"{path}: error: ")
+        assert str(caught.value).startswith(f"{path}:{where}: error: "), (text, str(caught.value))
 
 
 @settings(max_examples=20, deadline=None)
@@ -421,7 +428,7 @@ def test_cli_errors_are_the_projects_errors_with_their_exit_codes(tmp_path):
     bad = write(tmp_path, "bad.toml", "[simulation.probe]\nstylus = 3\n")
     result = invoke("calibrate", "--machine", bad)
     assert result.exit_code == EXIT_BAD_INPUT and result.stdout == ""
-    assert result.stderr.startswith(f"{bad}: error: ") and "unknown key 'simulation.probe.stylus'" in result.stderr
+    assert result.stderr.startswith(f"{bad}:2:1: error: ") and "unknown key 'simulation.probe.stylus'" in result.stderr
     result = invoke("probe", HEMISHELL, "--points", "1")
     assert result.exit_code == EXIT_BAD_INPUT and "error:" in result.stderr
     result = invoke("ballbar", "--radius", "-5")
