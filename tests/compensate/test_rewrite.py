@@ -546,7 +546,7 @@ def test_a_long_stretch_without_motion_is_written_as_it_is_read(filler, monkeypa
     past WINDOW of them, the move goes back to its nominal end and the window is written, so
     memory stays flat however long the stretch. The next move is joined from that nominal end."""
     stretch = 300
-    text = (f"G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nX40. Z-10.\n" + f"{filler}\n" * stretch +
+    text = ("G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nX40. Z-10.\n" + f"{filler}\n" * stretch +
             "G01 X60. Z-30.\nX70.\nG00 X100.\n")
     out, ahead = _stretch(text, monkeypatch, tolerance=0.001)
     assert ahead < 8 + rewrite_module.BATCH + 8  # the window and one batch read ahead, never the whole stretch
