@@ -102,29 +102,42 @@ def _one_block_for_other_axes(entry: Entry, count: int, file: str, joined: bool 
         Location(file, block.line, word.col + 1, block.text), OTHER_AXIS, f"{cause} ({OTHER_AXIS})")
 
 
-#: M98/M99, M198 and G65/G66 (as written, leading zero or not): a call or return, after which the
-#: other axes' places are unknown
-_CALLS = {("M", "98"), ("M", "098"), ("M", "99"), ("M", "099"), ("M", "198"), ("G", "65"), ("G", "065"),
-          ("G", "66"), ("G", "066")}
-
-#: The limit a block meets when it calls or returns after a move whose end was corrected.
-CALL = "a call in the block"
+#: The M codes that call a program (M98, M198: a subprogram, the second on an external device) or
+#: return from one (M99), and the G codes that call a macro (G65; G66 and G66.1, modal), keyed as
+#: the interpreter keys them (G65 is 650): ``M0098`` and ``G0065`` are calls too.
+_CALL_M = frozenset((98, 99, 198))
+_CALL_G = frozenset((650, 660, 661))
 
 
 def call_word(block: Block) -> Word | None:
-    """The block's word that calls a program or returns from one (M98, M198, G65, G66, M99),
-    or None. The program it passes to runs from wherever the tool stands: it was written for
-    the nominal end of the move before it, and an incremental one would run shifted by that
-    move's correction."""
-    if block.fields is not None or not any(code in _CALLS for code in block.codes):  # canonical: no M, no G65
+    """The block's word that calls a program or returns from one (M98, M198, G65, G66, G66.1,
+    M99, however written), or None. An M word whose value a macro variable gives (``M[#1]``)
+    may be one, and is taken for one. The program it passes to runs from wherever the tool stands:
+    it was written for the nominal end of the move before it, and an incremental one would run
+    shifted by that move's correction."""
+    if block.fields is not None:  # canonical: N G00-G03 X Z I K R F only
         return None
-    return next(word for word in block.words if (word.letter, word.value) in _CALLS)
+    for word in block.words:
+        letter, value = word.letter, word.value
+        if letter not in ("M", "G"):
+            continue
+        if type(value) is not str:
+            if letter == "M":
+                return word
+            continue
+        number = float(value)
+        if (int(number) in _CALL_M) if letter == "M" else (G.code_key(number) in _CALL_G):
+            return word
+    return None
+
 
 #: The incremental address of another axis (FANUC G-code system A): H for C, V for Y.
 _INCREMENTAL_OF = {"H": "C", "V": "Y"}
 
 #: The limit a block moving another axis meets when its correction needs more than one block.
 OTHER_AXIS = "another axis in the block"
+#: The limit a block meets when it calls or returns after a move whose end was corrected.
+CALL = "a call in the block"
 BLOCK_TIME, INTERFERENCE = "minimum block time", "nose radius interference check"  #: limits a block may meet
 
 

@@ -78,19 +78,32 @@ class Joining:
         elif self._end_would_move(entry, last_edit.end, nominal):
             self._retarget(entry, start=last_edit.end)
 
-    def _back_to_nominal(self, previous: Entry) -> None:
+    def _back_to_nominal(self, previous: Entry, before: Step | None = None) -> None:
         """The tool goes back to the nominal end of ``previous`` before a block that names the
-        coordinates of where it stands (G50 X/Z, G92 in systems B and C, a preset): named at the
+        coordinates of where it stands (G50 X/Z, G92 in systems B and C, a preset: named at the
         corrected end, the frame would carry that correction, a constant shift of every block
-        after it. Nothing is joined across such a block."""
+        after it) or that calls or returns (the program it passes to was written for the
+        nominal end). Nothing is joined across such a block. ``before``: that block, for the
+        refusal of a join under G41/G42; None: a long stretch without motion. After a cycle's
+        contour the tool stands at the cycle's start point, not at the contour's end: nothing
+        goes back."""
         moves = previous.step.moves
         along = [index for index, move in enumerate(moves) if move.role in _ALONG]
         if not along:
             return
         last_move, last_edit = moves[along[-1]], previous.edits[along[-1]]
-        if last_edit is None or None in (last_move.x1, last_move.z1):
+        if last_edit is None or None in (last_move.x1, last_move.z1) or last_move.role == CONTOUR:
             return
-        last_edit.lead_out = self._connector(last_edit.end, (last_move.x1, last_move.z1), previous.step)
+        last_edit.lead_out = self._connector(last_edit.end, (last_move.x1, last_move.z1), previous.step,
+                                             self._before(before))
+
+    @staticmethod
+    def _before(block_step: Step | None) -> str:
+        """Why a move goes back to its nominal end, as a refusal under G41/G42 says it."""
+        if block_step is None:
+            return " (back to the programmed end before a long stretch of blocks that move nothing)"
+        what = "which names where the tool stands" if block_step.names_position else "which calls or returns"
+        return f" (back to the programmed end before line {block_step.block.line}, {what})"
 
     def _simple(self, entry: Entry) -> bool:
         """A block with one plain line or rapid that can be rewritten with other end points."""
@@ -141,19 +154,27 @@ class Joining:
         """Write a corner block's geometry out, so the control no longer computes the corner."""
         entry.edits = [_as_it_is(move) if move.kind in (LINE, ARC) and move.known else None for move in entry.step.moves]
 
-    def _connector(self, start, end, step: Step) -> Cut | None:
+    def _connector(self, start, end, step: Step, why: str = "") -> Cut | None:
         """The connecting G01 from ``start`` to ``end``, written with ``step``'s block; None
-        when they are one point on the output grid."""
+        when they are one point on the output grid. ``why``: what needs it, for a refusal."""
         if start == end:  # one point, on the grid or not (the corrections of two pieces at the point they share)
             return None
         grid = self._grid(step)  # _snap's, looked up once for both ends
         a, b = grid.snap(*start), grid.snap(*end)
         if a == b:
             return None
-        self._no_join_under_nose_offset(step, a, b)
+        self._no_join_under_nose_offset(step, a, b, why)
         return Cut(a[0], a[1], b[0], b[1])
 
-    def _no_join_under_nose_offset(self, step: Step, a, b) -> None:
+    def _under_nose_offset(self, step: Step) -> bool:
+        """Whether the control offsets the step's block by the tool's nose radius (G41/G42 in
+        force or set or cancelled by the block, and a nose radius in the profile)."""
+        block = step.block
+        return self.profile.nose_radius_mm > 0.0 and (step.modal.comp in (41, 42) or (block.fields is None and any(
+            letter == "G" and type(value) is str and value.lstrip("0") in ("40", "41", "42")
+            for letter, value in block.codes)))
+
+    def _no_join_under_nose_offset(self, step: Step, a, b, why: str = "") -> None:
         """Under G41/G42 the control offsets every block by the nose radius and joins the offset
         paths at their intersections; a join of a few micrometres across the path (the
         correction jumps, as it does at an axis reversal) has its offset path run backwards
@@ -161,18 +182,15 @@ class Joining:
         off), and a G41/G42/G40 carried by it starts or cancels the offset along a direction it
         does not have. Such a join is refused, never written: the planner keeps its own blocks
         long enough (:meth:`~postproc.compensate.planning.Planning._length_rule`), a join cannot be."""
+        if not self._under_nose_offset(step):
+            return
         nose = self.profile.nose_radius_mm
         block = step.block
-        offset = step.modal.comp in (41, 42) or (block.fields is None and any(
-            letter == "G" and type(value) is str and value.lstrip("0") in ("40", "41", "42")
-            for letter, value in block.codes))
-        if not offset or nose <= 0.0:
-            return
         length = ((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2) ** 0.5
         word = next((w for w in block.words if w.letter in "XZUW"), None) or (block.words[0] if block.words else None)
         raise UnplannableBlock(
             f"block cannot be compensated: under tool nose radius compensation (G41/G42) the corrected path needs "
-            f"a join of {length * 1000:.1f} um here, and the control would offset it by the nose radius "
+            f"a join of {length * 1000:.1f} um here{why}, and the control would offset it by the nose radius "
             f"({nose:g} mm) into a path that runs backwards (interference alarm PS0041, or a gouge); compensate a "
             f"program written for the tool's nose centre (G40), or state nose_radius_mm = 0 in the machine "
             f"profile if the control does not offset this tool",

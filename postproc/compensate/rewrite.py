@@ -47,7 +47,7 @@ from . import monotone
 from .compensator import Piece
 from .emitter import Writer
 from .correcting import _ALONG, Correcting, STEPS, _travel, _turns, pieces, sample_lines, travel_after
-from .edits import _CALLS, _INCREMENTAL_OF, KEEP, call_word, MACRO_VALUES, NAMED, NUMBERS, REFUSE, Edit, Entry, macro_word
+from .edits import _INCREMENTAL_OF, KEEP, MACRO_VALUES, NAMED, NUMBERS, REFUSE, Edit, Entry, call_word, macro_word
 from .joining import Joining
 from .one_way import OneWayRule, _OneWay
 from .planning import Planning
@@ -141,7 +141,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
                         yield from self._release()
                 elif entry.refusal is None and not entry.motion and not _restarts(step):
                     self._window.append(entry)
-                    if len(self._window) > WINDOW and self._settles_early(self._previous):
+                    if len(self._window) - (self._previous is not None) > WINDOW and self._settles_early(self._previous):
                         yield from self._flush(self._settle_window())
                 else:
                     for waiting in self._take(entry):  # each written as its lines are asked for
@@ -164,8 +164,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
         block = step.block
         if block.fields is not None:  # canonical: N G X Z I K R F only
             return None
-        if block.statement is not None or not step.interpreted or any(
-                (letter, value) in _CALLS for letter, value in block.codes):
+        if block.statement is not None or not step.interpreted or call_word(block) is not None:
             self._other_values.clear()  # a jump or a call: where the axes stand is no longer known
         moving = None
         for word in block.words:
@@ -191,7 +190,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
         if not entry.motion:
             if _restarts(entry.step):
                 if self._previous is not None:  # the frame it names, the program it calls, are the program's
-                    self._back_to_nominal(self._previous)
+                    self._back_to_nominal(self._previous, entry.step)
                 self._previous = self._settled = None
             self._window.append(entry)
             return []
@@ -207,14 +206,15 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
         return window
 
     def _settles_early(self, previous: Entry | None) -> bool:
-        """Whether the window's join may be settled before the next move is read: always with no
-        motion step in it; otherwise only for a move whose end may go back to nominal with a
-        connecting G01 (not a cycle's contour, a corner the control rounds with the next move, or
-        a block that also moves another axis, which is never split)."""
-        if previous is None:
+        """Whether the window's join may be settled before the next move is read: with no
+        motion step in it, or after a cycle's contour (the tool stands at the cycle's start
+        point: nothing joins its end); otherwise only for a move whose end may go back to
+        nominal with a connecting G01: not a corner the control rounds with the next move, a
+        move under G41/G42 (such a join is refused), or a move on a machine with other axes (the
+        next block may move one, and a lead-in would split it): those hold their stretch whole."""
+        if previous is None or previous.step.in_contour or previous.step.contour_end:
             return True
-        return not (previous.step.in_contour or previous.step.contour_end or previous.moving is not None
-                    or self._has_corner(previous.step.block))
+        return not (self._others or self._has_corner(previous.step.block) or self._under_nose_offset(previous.step))
 
     def _settle_window(self) -> list[Entry]:
         """The window, to be written now: its motion step goes back to its nominal end (as

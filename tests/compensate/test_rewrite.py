@@ -572,18 +572,23 @@ def test_a_short_stretch_without_motion_keeps_its_join(monkeypatch):
     assert not any(line.startswith("X40. Z-10.") for line in small.splitlines())
 
 
-@pytest.mark.parametrize("head, filler, tail", [
-    ("G01 Z0.\nX40. Z-10. ,C1.", "(A COMMENT)", "G01 X60. Z-30."),
-    ("G01 Z0.\nX40. Z-10. C30.", "M08", "G01 X60. Z-30."),
-    ("G71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\nN10 G00 X20.\nG01 Z-10.\nX30. Z-20.\nN20 X40.", "(C)", "G70 P10 Q20"),
+@pytest.mark.parametrize("head, filler, tail, axes", [
+    ("G01 Z0.\nX40. Z-10. ,C1.", "(A COMMENT)", "G01 X60. Z-30.", "XZ"),
+    ("G01 Z0.\nX40. Z-10. C30.", "M08", "G01 X60. Z-30.", "XZC"),
+    ("G01 Z0. C0.\nX40. Z-10.", "M08", "G01 X60. Z-30. C90.", "XZC"),
+    ("G42 G00 X30. Z2.\nG01 Z0.\nX40. Z-10.", "(C)", "G01 X60. Z-30.\nG40 G00 X80.", "XZ"),
+    ("G71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\nN10 G00 X20.\nG01 Z-10.\nX30. Z-20.\nN20 X40.", "(C)", "G70 P10 Q20",
+     "XZ"),
 ])
-def test_a_move_its_next_move_finishes_is_held_with_its_whole_stretch(head, filler, tail, monkeypatch):
-    """A corner the control rounds with the next move (,C ,R) and a block that also moves
-    another axis (never split) cannot be sent back to their nominal end, nor can the last block
-    of a cycle's contour (it must run one way): their stretch is held whole (for a corner,
-    comments and blank lines: anything else alarms, PS0051), and the program comes out as
-    with no limit."""
-    profile = replace(DEFAULT, axes=("X", "Z", "C"))
+def test_a_move_its_next_move_finishes_is_held_with_its_whole_stretch(head, filler, tail, axes, monkeypatch):
+    """A corner the control rounds with the next move (,C ,R) cannot be sent back to its
+    nominal end, nor can a move under G41/G42 (the join would be refused) or one on a machine
+    with another axis (the next block may move it, and a lead-in would split it): their stretch
+    is held whole (for a corner, comments and blank lines: anything else alarms, PS0051). After
+    a cycle's contour nothing joins its end (the tool stands at the cycle's start point): the
+    stretch is written as it is read, with nothing added. Each program comes out as with no
+    limit."""
+    profile = replace(DEFAULT, axes=axes)
     text = f"G18 G21 G99 F0.1\nG00 X42. Z5.\n{head}\n" + f"{filler}\n" * 40 + f"{tail}\nG00 X100.\n"
 
     def run(window):
@@ -600,8 +605,9 @@ def test_a_move_its_next_move_finishes_is_held_with_its_whole_stretch(head, fill
     assert run(8) == run(4096)
 
 
-@pytest.mark.parametrize("call", ["M98 P1000", "M098 P1000 L2", "M198 P1000", "G65 P9010 A1.", "G66 P9010 A1.",
-                                  "M99", "N40 M99 P10"])
+@pytest.mark.parametrize("call", ["M98 P1000", "M098 P1000 L2", "M0098 P1000", "M198 P1000", "G65 P9010 A1.",
+                                  "G0065 P9010", "G66 P9010 A1.", "G66.1 P9010 A1.", "M99", "M0099", "N40 M99 P10",
+                                  "M08 M98 P1000"])
 def test_a_call_or_return_starts_from_the_nominal_end(call):
     """A program called (M98, M198, G65, G66) or returned to (M99) after a corrected move runs
     from where the tool stands: it was written for the move's nominal end, and an incremental
@@ -633,3 +639,28 @@ def test_a_move_that_calls_keeps_its_end_or_is_refused_at_the_call(call):
     unmoved = lambda piece: None if piece.move.line != 3 else np.tile((0.003, -0.002), (len(piece.points), 1))
     out, _ = rewrite(text, unmoved, tolerance=0.001)  # its end stays where it was: nothing to refuse
     assert f"X40. Z-10. {call}" in out.splitlines()
+
+
+@pytest.mark.parametrize("after", ["M98 P2000", "G50 X130. Z5.", "(C)\n" * 40 + "M08"])
+def test_after_a_cycles_contour_nothing_goes_back_to_its_end(after, monkeypatch):
+    """After the last block of a G71 contour the tool stands at the cycle's start point, not at
+    the contour's end: a call, a G50 or a long stretch there adds no move back to the contour's
+    nominal end (which would also break the cycle's one-way rule)."""
+    monkeypatch.setattr(rewrite_module, "WINDOW", 8)
+    head = ("G18 G21 G99 F0.1\nG00 X42. Z5.\nG71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\nN10 G00 X20.\n"
+            "G01 Z-10.\nX30. Z-20.\nN20 X40.\n")
+    tail = "G00 X100. Z50.\n"
+    shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
+    alone, _ = rewrite(head + tail, shift, tolerance=0.001)
+    out, _ = rewrite(head + after + "\n" + tail, shift, tolerance=0.001)
+    assert out == alone.replace(tail, after + "\n" + tail)
+    assert out != head + after + "\n" + tail  # the contour was corrected
+
+
+def test_a_call_under_nose_radius_compensation_is_refused_naming_the_call():
+    """Under G41/G42 the move back to the nominal end before a call is a join the control would
+    offset into a path that runs backwards: refused, and the refusal says the call needs it."""
+    text = "G18 G21 G99 F0.1\nG42 G00 X20. Z5.\nG01 Z0.\nX40. Z-10.\nM98 P1000\nG40 G00 X100.\n"
+    shift = lambda piece: None if piece.move.line != 4 else np.tile((0.003, -0.002), (len(piece.points), 1))
+    with pytest.raises(UnplannableBlock, match=r"back to the programmed end before line 5, which calls or returns"):
+        rewrite(text, shift, tolerance=0.001)
