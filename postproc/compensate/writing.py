@@ -15,7 +15,7 @@ from ..diagnostics import Location, SafetyError
 from ..interpret import gcodes as G
 from ..interpret.motion import RAPID, Step
 from ..syntax.blocks import Block
-from .edits import NAMED, NUMBERS, REFUSE, Entry, _as_it_is, _group, _one_block_for_other_axes, _where, macro_word
+from .edits import NAMED, NUMBERS, REFUSE, Entry, _as_it_is, _group, _one_block_for_other_axes, _where, call_word, macro_word
 from .emitter import Style, with_motion_code, writer_for
 from .segmenter import Cut
 
@@ -45,13 +45,16 @@ class Writing:
                     and not sets_mode
                     and not any(_group(value, self.profile.gcode_system) == G.ONE_SHOT for value in codes)
                 )
-            if relies and self.mode_now is not None and before is not None and self.mode_now != before:
+            if relies and self.mode_now is not None and before is not None and self.mode_now != before \
+                    and step.modal.motion is not None:  # after a call the mode is the called program's: unknown
                 self._mode_outside_region(step, before)
                 writer = writer_for(self._grid(step), self.profile.gcode_system, step.modal.absolute)
                 self.mode_now = before
                 return [with_motion_code(block, writer.code(before, Style.of(block)))]
             if sets_mode or self.mode_now is None:
                 self.mode_now = step.modal.motion
+            elif self.mode_now != before and before is not None and fields is None:
+                self._mode_into_call(step, before)
             self._follow_contour(step, None)
             return [block.raw]
         if self.request.macro_values == NUMBERS:
@@ -78,6 +81,22 @@ class Writing:
         self.replaced += 1
         self.emitted += len(lines)
         return lines
+
+    def _mode_into_call(self, step: Step, mode: int) -> None:
+        """A call or return written where the replacement before it left another motion mode in
+        force than the program had (a corrected arc ends with a G01 back to its nominal end, or
+        was written as lines): the program it passes to starts in that mode, and one that relies
+        on the mode it inherits (its first block ``X.. Z.. R..`` under G02) would run otherwise.
+        Said, not refused: most programs state their first move's G code."""
+        block = step.block
+        word = call_word(block)
+        if word is None:
+            return
+        self.reporter.warn(
+            f"{word.text} passes to a program that starts with {_code(self.mode_now)} in force, where the program as "
+            f"written had {_code(mode)} (the compensated move before it ends so): a called program that relies on "
+            f"the motion mode it inherits would run otherwise; give its first move a G code of its own",
+            Location(self.file, block.line, word.col + 1, block.text))
 
     def _mode_outside_region(self, step: Step, mode: int) -> None:
         """A block outside --region that relies on a motion mode a join inside the region no

@@ -664,3 +664,21 @@ def test_a_call_under_nose_radius_compensation_is_refused_naming_the_call():
     shift = lambda piece: None if piece.move.line != 4 else np.tile((0.003, -0.002), (len(piece.points), 1))
     with pytest.raises(UnplannableBlock, match=r"back to the programmed end before line 5, which calls or returns"):
         rewrite(text, shift, tolerance=0.001)
+
+
+def test_a_call_after_a_corrected_arc_says_the_mode_it_inherits_and_guesses_none_after_it():
+    """A corrected arc goes back to its nominal end with a G01 before M98: the called program
+    starts with G01 in force where the program had G02, which is said at the call (a program
+    relying on the mode it inherits would run otherwise). After the call the mode is the called
+    program's: a block relying on it is written as it was, never given the G02 of before."""
+    text = "G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nG02 X40. Z-10. R10.\nM98 P2000\nX60. Z-20. R10.\nG00 X100.\n"
+    with Source.from_text(text, "t.nc") as source:
+        reporter = Reporter()
+        rewriter = Rewriter(interpret_source(source, DEFAULT, reporter), each(radial(0.003, lines={4})), DEFAULT,
+                            Request(tolerance=0.001), reporter, "t.nc")
+        out = "".join(rewriter.run())
+    lines = out.splitlines()
+    assert lines[lines.index("M98 P2000") - 1].startswith("G01 X40. Z-10.")  # back to the nominal end
+    assert lines[lines.index("M98 P2000") + 1] == "X60. Z-20. R10."
+    said = [w for w in reporter.warnings if "passes to a program that starts with G01" in w.message]
+    assert len(said) == 1 and said[0].location.line == 5 and "had G02" in said[0].message
