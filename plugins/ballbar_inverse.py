@@ -62,7 +62,6 @@ class BallbarInverse(TraceInversion):
         else:
             screen_spikes(traces, self.context.reporter, self.context.force, self.name)
             self.traces = {traces[0].direction: traces[0]}
-        self._warned = False
 
     def _check_labels(self, result) -> None:
         """Swapped ccw/cw labels would put each trace on the other direction's arcs: refused unless forced."""
@@ -83,7 +82,6 @@ class BallbarInverse(TraceInversion):
 
     def load(self, model: dict) -> None:
         self.traces = {direction: trace_from_model(data, direction) for direction, data in model["traces"].items()}
-        self._warned = False
 
     def report(self) -> dict:
         return {direction: {"file": trace.path, "radius_mm": trace.radius, "setup_centre_mm": list(trace.setup_centre)}

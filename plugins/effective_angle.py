@@ -174,11 +174,14 @@ class EffectiveAngle(ErrorFunctions):
             self.prediction.add(pieces, shifts, self.reference, self.centre, self.box)
         return shifts
 
+    def start(self) -> None:
+        """A new program: its own prediction, whatever the last one left."""
+        self.prediction = Prediction()
+
     def finish(self) -> None:
         """Warn when the tables are predicted to leave this program worse than no compensation."""
         super().finish()
         before, after = self.prediction.figures()
-        self.prediction = Prediction()
         if before is None:
             return
         worse = [name for name in ("mean", "mean |e|", "RMS", "sigma")

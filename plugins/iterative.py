@@ -53,7 +53,6 @@ class Iterative(TraceInversion):
         self._sequences = by_direction
         threshold = self.settings["selective"]
         self.traces = {direction: Summed(traces, threshold) for direction, traces in by_direction.items()}
-        self._warned = False
 
     def model(self) -> dict:
         return {"selective": self.settings["selective"],
@@ -63,7 +62,6 @@ class Iterative(TraceInversion):
         self._sequences = {d: [trace_from_model(t, d) for t in traces] for d, traces in model["iterations"].items()}
         self.settings["selective"] = model.get("selective")
         self.traces = {d: Summed(traces, self.settings["selective"]) for d, traces in self._sequences.items()}
-        self._warned = False
 
     def report(self) -> dict:
         return {d: {"iterations": [t.path for t in traces]} for d, traces in self._sequences.items()}

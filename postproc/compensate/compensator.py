@@ -158,6 +158,12 @@ class Compensator:
         """Build the model from measurements."""
         raise NotImplementedError
 
+    def start(self) -> None:
+        """A program begins (each program of a batch, each of a library's pipeline): forget what
+        the last one left. The last one may have been refused half way, its :meth:`finish`
+        never called, so whatever a compensator gathers per program (a prediction, a warning
+        given once) is cleared here, not there."""
+
     def survey(self, moves: Iterable[Move]) -> None:
         """See every feed move of the program before any is corrected (when ``needs_survey``)."""
 

@@ -185,6 +185,8 @@ class Pipeline:
 
     def _run(self, source: Source, spool: Spool) -> Rewriter:
         self._refuse_twice(source)
+        for compensator in self.compensators:
+            self._guarded(compensator, "start", compensator.start, model=self.request.model)
         if any(c.needs_survey for c in self.compensators):
             moves = [m for step in interpret_source(source, self.profile, Reporter())
                      for m in step.moves if m.kind in (LINE, ARC) and m.known]

@@ -55,6 +55,7 @@ class ErrorFunctions(Compensator):
     radius: float
     box: tuple[tuple[float, float], tuple[float, float]]
     fit_figures: dict[str, dict[str, float]]
+    _warned = False  #: whether this program was warned of its moves outside the box
 
     def errors(self, u, w, x_direction, z_direction) -> tuple[np.ndarray, np.ndarray]:
         raise NotImplementedError
@@ -74,7 +75,7 @@ class ErrorFunctions(Compensator):
                                    f"{traces[0].direction}", Location(traces[-1].path))
         self.diagnosis = screen(traces, self.context.reporter, self.context.force, self.name)
         first = grouped[0][0]
-        self.centre, self.radius, self._warned = first.centre, first.radius, False
+        self.centre, self.radius = first.centre, first.radius
         samples = ballbar_fit.Samples.of(traces)
         self.box = ((float(samples.x.min()), float(samples.x.max())), (float(samples.z.min()), float(samples.z.max())))
         return traces
@@ -155,11 +156,10 @@ class ErrorFunctions(Compensator):
             if not (self.box[0][0] <= self.box[0][1] and self.box[1][0] <= self.box[1][1]):
                 raise ValueError("box_mm: each range must run from low to high")
         self.fit_figures = model.get("fit", {})
-        self._warned = False
 
-    def finish(self) -> None:
-        """The program is done: the next one (a batch, a library's pipeline) is warned of its own
-        moves outside the box."""
+    def start(self) -> None:
+        """A new program (a batch's next, a library's pipeline's next, after one refused half
+        way too) is warned of its own moves outside the box."""
         self._warned = False
 
     def report(self) -> dict[str, Any]:

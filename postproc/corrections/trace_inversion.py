@@ -43,6 +43,11 @@ class TraceInversion(Compensator):
     )
 
     traces: dict[str, BallbarTrace | Summed]
+    _warned = False  #: whether this program was told that one trace serves both directions
+
+    def start(self) -> None:
+        """A new program is told, once, if one trace serves both directions."""
+        self._warned = False
 
     def _trace(self, cw: bool) -> BallbarTrace:
         direction = "cw" if cw else "ccw"

@@ -10,6 +10,7 @@ import os
 import subprocess
 import sys
 
+import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from support import INCH_HEMISHELL, SAMPLES
@@ -227,3 +228,56 @@ def test_a_measurement_or_model_read_from_stdin_is_recorded_as_stdin(run, tmp_pa
                    "-o", str(report), input=ccw)
     assert reported.exit_code == 0, reported.stderr
     assert "<td>&lt;stdin&gt;</td>" in report.read_text() and "<td>-</td>" not in report.read_text()
+
+
+def test_a_program_refused_half_way_leaves_nothing_to_the_next_of_a_batch():
+    """Each program of a batch (one pipeline, several programs) is told of its own moves: a
+    program refused half way never reaches the compensators' finish(), and their start() is
+    what clears the warning given once per program (here: a move outside the box the test arcs
+    span), so the next program is warned of its own."""
+    from postproc.api import Pipeline
+    from postproc.diagnostics import PostprocError, Reporter
+
+    reporter = Reporter()
+    pipeline = Pipeline(plugins=["parametric"], ballbar=[CCW, CW], reporter=reporter)
+    outside = "G18 G21 G99 F0.1\nG00 X300. Z5.\nG01 Z-300.\n"
+    with pytest.raises(PostprocError):  # refused at its last block, after the move outside the box
+        pipeline.compensate_text(outside + "G02 X20. Z-320. R1.\n", "a.nc")
+    pipeline.compensate_text(outside, "b.nc")
+    told = [w for w in reporter.warnings if "leaves the box" in w.message]
+    assert [w.location.file for w in told] == ["a.nc", "b.nc"]
+
+
+def test_each_program_of_a_batch_is_told_that_one_trace_serves_both_directions():
+    """ballbar-inverse given one trace: every program whose G02 arcs take the CCW trace is told
+    so, not only the first of a batch."""
+    from postproc.api import Pipeline
+    from postproc.diagnostics import Reporter
+
+    reporter = Reporter()
+    pipeline = Pipeline(plugins=["ballbar-inverse"], ballbar=[CCW], options=["radius-mapping=relative"],
+                        reporter=reporter)
+    for name in ("a.nc", "b.nc"):
+        pipeline.compensate_text(HEMISHELL.read_text().replace("G03", "G02"), name)
+    told = [w for w in reporter.warnings if "take the ccw trace" in w.message]
+    assert len(told) == 2 and {w.location.file for w in told} == {CCW}  # once for each program, at the trace
+
+
+def test_effective_angle_predicts_each_program_of_a_batch_from_its_own_moves():
+    """The prediction effective-angle warns with is gathered from one program's moves: a program
+    refused half way leaves none of its moves in the next one's."""
+    from postproc.api import Pipeline
+    from postproc.diagnostics import PostprocError, Reporter
+
+    def predicted(before: list[str]) -> list[str]:
+        reporter = Reporter()
+        pipeline = Pipeline(plugins=["effective-angle"], ballbar=[CCW, CW], reporter=reporter)
+        for text in before:
+            with pytest.raises(PostprocError):
+                pipeline.compensate_text(text, "a.nc")
+        pipeline.compensate_text(HEMISHELL.read_text(), "b.nc")
+        return [w.message for w in reporter.warnings if "predicted to leave" in w.message]
+
+    refused = "G18 G21 G99 F0.1\nG00 X0. Z5.\nG01 Z0.\nG03 X50. Z-25. R25.\nG01 Z-60.\nG02 X20. Z-320. R1.\n"
+    alone = predicted([])
+    assert alone and predicted([refused]) == alone
