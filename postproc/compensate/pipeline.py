@@ -197,7 +197,7 @@ class Pipeline:
         steps = interpret_source(source, self.profile, self.reporter, rewriting=True)
         region = Region(self.request.regions, source.labels if self.request.regions else None, source.name)
         rewriter = Rewriter(steps, self._corrector(source.name), self.profile, self.request, self.reporter, source.name,
-                            selects=region)
+                            selects=region, labels=source.labels)
         lead = Lead()  # the tape mark and program number go before the provenance block
         written = 0  # blocks written: one per source line up to the anchor, none of them replaced
         with tempfile.SpooledTemporaryFile(max_size=1 << 20) as body:

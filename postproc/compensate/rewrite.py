@@ -39,6 +39,7 @@ from ..diagnostics import Location, PostprocError, Reporter
 from ..interpret.interpreter import Interpreter
 from ..interpret.motion import Move, Step
 from ..syntax.blocks import Word
+from ..syntax.source import LabelIndex
 from ..machine import bounds
 from ..machine.bounds import MAX_TOLERANCE
 from ..machine.profile import MachineProfile
@@ -81,7 +82,8 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
     """Streams steps to output text, replacing the moves the corrector changes."""
 
     def __init__(self, steps: Iterable[Step], corrector: Corrector, profile: MachineProfile, request: Request,
-                 reporter: Reporter, file: str = "<program>", selects: Callable[[Step, Move], bool] | None = None):
+                 reporter: Reporter, file: str = "<program>", selects: Callable[[Step, Move], bool] | None = None,
+                 labels: LabelIndex | None = None):
         """``profile``: the machine the program runs on (its grid, limits and control rules, and
         how the self-check reads the replacement back); ``request``: what this run was asked for
         (tolerance, mode, maximum correction, the choices for blocks that cannot be held or read
@@ -94,10 +96,12 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
         self.reporter = reporter
         self.file = file
         self.selects = selects or (lambda step, move: True)
+        self.labels = labels or LabelIndex()  #: where the control may jump, and the cycles' P and Q labels
         #: whether a block lies in the region, not counting it as selected; a block outside is never rewritten
         self.inside = getattr(selects, "contains", None) or self.selects
         self.mode_now = None  # motion mode the control is in after what was written
         self.original_mode = None  # motion mode the original program had at this point
+        self.known_mode = None  # the last motion mode the interpreter knew the original program to be in
         self.largest = 0.0  #: largest correction applied, mm
         self.replaced = 0  #: blocks replaced
         self.emitted = 0  #: blocks written for them
@@ -124,7 +128,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
 
     def run(self) -> Iterator[str]:
         self._window, self._previous, self._pending, self._settled = [], None, None, None
-        self.mode_now = self.original_mode = None
+        self.mode_now = self.original_mode = self.known_mode = None
         others = bool(self._others)
         one_way = monotone.ONE_WAY_CYCLES
         write = self._write

@@ -30,8 +30,10 @@ class Writing:
         """The lines written for a step: the block as it was, or its replacement, checked."""
         step = entry.step
         block = step.block
-        before = self.original_mode
+        before, known = self.original_mode, self.known_mode
         self.original_mode = step.modal.motion
+        if step.modal.motion is not None:
+            self.known_mode = step.modal.motion
         if not entry.edited and entry.retarget is None:
             fields = block.fields
             if fields is not None:  # a canonical block: G00-G03 at most, read from its fields
@@ -45,17 +47,26 @@ class Writing:
                     and not sets_mode
                     and not any(_group(value, self.profile.gcode_system) == G.ONE_SHOT for value in codes)
                 )
-            if relies and self.mode_now is not None and before is not None and self.mode_now != before \
-                    and step.modal.motion is not None:  # after a call the mode is the called program's: unknown
-                self._mode_outside_region(step, before)
-                writer = writer_for(self._grid(step), self.profile.gcode_system, step.modal.absolute)
-                self.mode_now = before
-                return [with_motion_code(block, writer.code(before, Style.of(block)))]
+            if relies and self.mode_now is not None:
+                wanted = step.modal.motion  # the mode the program as written runs this block in
+                if wanted is None:  # how the program reaches it decides: a jump's target, after an unknown code
+                    if known is not None and self.mode_now != known:
+                        self._mode_unknown(step, known)
+                elif self.mode_now != wanted:
+                    self._mode_outside_region(step, wanted)
+                    writer = writer_for(self._grid(step), self.profile.gcode_system, step.modal.absolute)
+                    if block.delete is None:  # a block the control may skip leaves the mode as it was
+                        self.mode_now = wanted
+                    return [with_motion_code(block, writer.code(wanted, Style.of(block)))]
             if sets_mode or self.mode_now is None:
                 self.mode_now = step.modal.motion
-            elif self.mode_now != before and before is not None and fields is None:
-                self._mode_into_call(step, before)
+            elif fields is None and call_word(block) is not None:
+                if self.mode_now != before and before is not None:
+                    self._mode_into_call(step, before)
+                self.mode_now = None  # what the called program leaves in force (or the caller, after M99)
             self._follow_contour(step, None)
+            if step.contour_end:
+                self.mode_now = None  # the cycle gives back the mode it found, whatever its contour ended in
             return [block.raw]
         if self.request.macro_values == NUMBERS:
             word = macro_word(block)
@@ -73,30 +84,73 @@ class Writing:
         if writer is None:
             writer = self._writers[key] = writer_for(self._grid(step), self.profile.gcode_system, modal.absolute,
                                                      entry.axes)
-        lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=step.contour_end)
+        label_last = step.contour_end or self._ends_a_cycle(block)
+        lines, mode = writer.replacement(block, cuts, self.mode_now, label_last=label_last)
+        if len(lines) > 1 and block.label is not None:
+            self._one_place_for_the_label(step, label_last)
         self._self_check(entry, lines, cuts)
         self._near_nominal(entry, cuts)
         self._follow_contour(step, cuts)
-        self.mode_now = mode
+        self.mode_now = None if step.contour_end else mode  # a cycle gives back the mode it found
         self.replaced += 1
         self.emitted += len(lines)
         return lines
 
+    def _ends_a_cycle(self, block: Block) -> bool:
+        """Whether the block's label is a G70-G73 cycle's Q anywhere in the program: the cycle
+        runs its blocks through the one so labelled, so a replacement of several blocks carries
+        the label on its last (on its first, G70 would stop after the first piece)."""
+        return block.label is not None and int(block.label) in self.labels.cycle_ends
+
+    def _one_place_for_the_label(self, step: Step, last: bool) -> None:
+        """A replaced block split into several carries its label on one of them: the first for
+        a jump's target or a cycle's P (the run enters there), the last for a cycle's Q (the run
+        goes through it). A label wanted at both ends, or named by an expression (``Q[#1]``,
+        ``GOTO #2``: any label may be it), cannot be placed: refused."""
+        labels = self.labels
+        number = int(step.block.label)
+        entered = (number in labels.goto_targets or number in labels.cycle_starts or labels.computed_goto
+                   or None in labels.cycle_starts)
+        left = last or None in labels.cycle_ends
+        if not (entered and left):
+            return
+        block = step.block
+        raise SafetyError(
+            f"this block is replaced by several, and its label N{block.label} is wanted on the first of them (a jump or "
+            f"a cycle's P enters there, or a label an expression gives may) and on the last (a cycle's Q runs through "
+            f"it): give the move a block of its own between two labelled ones, or a wider --tolerance that keeps it "
+            f"one block", Location(self.file, block.line, block.words[0].col + 1 if block.words else None, block.text))
+
     def _mode_into_call(self, step: Step, mode: int) -> None:
         """A call or return written where the replacement before it left another motion mode in
         force than the program had (a corrected arc ends with a G01 back to its nominal end, or
-        was written as lines): the program it passes to starts in that mode, and one that relies
-        on the mode it inherits (its first block ``X.. Z.. R..`` under G02) would run otherwise.
-        Said, not refused: most programs state their first move's G code."""
+        was written as lines): the program it passes to goes on in that mode, and a block there
+        that relies on the mode it inherits (``X.. Z.. R..`` under G02) would run otherwise.
+        Said, not refused: most programs state their moves' G codes."""
         block = step.block
         word = call_word(block)
-        if word is None:
-            return
+        returns = word.letter == "M" and type(word.value) is str and int(float(word.value)) == 99
+        where = "returns to a program that goes on" if returns else "passes to a program that starts"
+        then = "the caller's next move" if returns else "the called program's first move"
         self.reporter.warn(
-            f"{word.text} passes to a program that starts with {_code(self.mode_now)} in force, where the program as "
-            f"written had {_code(mode)} (the compensated move before it ends so): a called program that relies on "
-            f"the motion mode it inherits would run otherwise; give its first move a G code of its own",
+            f"{word.text} {where} with {_code(self.mode_now)} in force, where the program as written had {_code(mode)} "
+            f"(the compensated move before it ends so): a block there that relies on the motion mode it inherits "
+            f"would run otherwise; give {then} a G code of its own",
             Location(self.file, block.line, word.col + 1, block.text))
+
+    def _mode_unknown(self, step: Step, mode: int) -> None:
+        """A block relying on the modal motion code where the interpreter cannot tell which mode
+        is in force (a jump's target, reached from more than one place; after a code it does not
+        follow), right after a replacement that left another mode in force than the program had:
+        writing the old mode in front would be a guess for the other ways in, leaving it as it
+        was would run it in the new mode. Refused, with the block's own G code as the remedy."""
+        block = step.block
+        raise SafetyError(
+            f"this block relies on the modal motion code, and which one is in force depends on how the program "
+            f"reaches it (a jump's target, or after a block postproc does not follow); the compensated block before "
+            f"it leaves {_code(self.mode_now)} in force where the program as written had {_code(mode)}: write the "
+            f"block's own G code in the program",
+            Location(self.file, block.line, block.words[0].col + 1 if block.words else None, block.text))
 
     def _mode_outside_region(self, step: Step, mode: int) -> None:
         """A block outside --region that relies on a motion mode a join inside the region no

@@ -49,6 +49,13 @@ _ENTRY = re.compile(rb"m[ \t]*(?:0[ \t]*)*(?:1[ \t]*)?9[ \t]*8" + _BETWEEN + rb"
 # The control reads a block's words in any order: the P or Q may come before the M code.
 _RETURN_AFTER = re.compile(rb"p[ \t]*(\d[\d \t]*|[#\[])[^\r\n(]*?m[ \t]*(?:0[ \t]*)*9[ \t]*9(?![ \t]*\d)")
 _ENTRY_AFTER = re.compile(rb"q[ \t]*(\d[\d \t]*|[#\[])[^\r\n(]*?m[ \t]*(?:0[ \t]*)*(?:1[ \t]*)?9[ \t]*8(?![ \t]*\d)")
+# A multiple repetitive cycle that runs the blocks from its P to its Q label (G70-G73): a block
+# labelled with such a Q ends a finishing or roughing pass, wherever it stands in the program.
+_CYCLE = rb"g[ \t]*(?:0[ \t]*)*7[ \t]*[0-3](?![ \t]*[\d.])"
+_CYCLE_RANGE = tuple(re.compile(pattern) for pattern in (
+    _CYCLE + rb"[^\r\n(]*?([pq])[ \t]*(\d[\d \t]*|[#\[])",
+    rb"([pq])[ \t]*(\d[\d \t]*|[#\[])[^\r\n(]*?" + _CYCLE,
+))
 # The control ignores spaces, even inside a number: ``M 0 98 P 3 1000`` calls O1000 three times.
 _CALLS = tuple(
     re.compile(rb"%s[ \t]*(?:0[ \t]*)*%s[ \t]*%s(?![ \t]*\d)[^\r\n(]*?p[ \t]*(\d[\d \t]*)" % code)
@@ -60,8 +67,10 @@ class LabelIndex:
     """Which labels control may jump to (a GOTO's, an M99 P's, an M98 Q's), which programs are called from where, and (scanned
     only when a cycle asks) where each sequence number stands."""
 
-    def __init__(self, goto_targets=None, computed_goto: bool = False, calls=None, scan=None):
+    def __init__(self, goto_targets=None, computed_goto: bool = False, calls=None, scan=None, cycle_ranges=None):
         self.goto_targets: set[int] = goto_targets or set()
+        #: the P and the Q labels of the G70-G73 cycles (None for a label an expression gives: any may be one)
+        self.cycle_starts, self.cycle_ends = cycle_ranges or (set(), set())
         self.computed_goto = computed_goto  #: a GOTO whose target is an expression: any label may be a target
         self.calls: dict[int, int] = calls or {}  #: program number -> places that call it (M98/G65)
         self._scan = scan
@@ -109,6 +118,19 @@ class LabelIndex:
         """Label -> how many blocks carry it."""
         self._labels()
         return self._counts
+
+
+_LINE_END = re.compile(rb"[\r\n(]")
+_RANGE_WORD = re.compile(rb"([pq])[ \t]*(\d[\d \t]*|[#\[])")
+
+
+def _cycle_range(chunk: bytes, start: int, ranges: dict[bytes, set[int | None]]) -> None:
+    """Add the P and Q labels of the cycle block read from ``start`` to its end (or its first
+    comment); None for one an expression gives."""
+    end = _LINE_END.search(chunk, start)
+    for letter, value in _RANGE_WORD.findall(chunk, start, end.start() if end else len(chunk)):
+        value = value.replace(b" ", b"").replace(b"\t", b"")
+        ranges[letter].add(int(value) if value.isdigit() else None)
 
 
 def _anonymous(name: str) -> BinaryIO:
@@ -230,8 +252,12 @@ class Source:
         targets: set[int] = set()
         calls: dict[int, int] = {}
         computed = False
+        ranges: dict[bytes, set[int | None]] = {b"p": set(), b"q": set()}
         for chunk in self.chunks():
             chunk = chunk.lower()
+            for pattern in _CYCLE_RANGE:
+                for match in pattern.finditer(chunk):
+                    _cycle_range(chunk, match.start(), ranges)
             called = {match.start(1): match.group(1) for pattern in _CALLS for match in pattern.finditer(chunk)}
             for spelled in called.values():  # one P word is one call, whichever code reads it
                 number = int(spelled.replace(b" ", b"").replace(b"\t", b""))
@@ -244,7 +270,7 @@ class Source:
                         targets.add(int(target))
                     else:
                         computed = True
-        return LabelIndex(targets, computed, calls, scan=self._label_places)
+        return LabelIndex(targets, computed, calls, scan=self._label_places, cycle_ranges=(ranges[b"p"], ranges[b"q"]))
 
     def _label_places(self) -> tuple[dict[int, list[int]], dict[int, int], list[tuple[int, str]], list[int]]:
         """Scan the whole program, a chunk at a time, for the lines of its sequence numbers, of

@@ -47,7 +47,7 @@ def each(correct):
 def rewrite(text: str, correct, profile=DEFAULT, **options) -> tuple[str, Rewriter]:
     with Source.from_text(text, "t.nc") as source:
         rewriter = Rewriter(interpret_source(source, profile), each(correct), profile, Request(**options), Reporter(),
-                            "t.nc")
+                            "t.nc", labels=source.labels)
         return "".join(rewriter.run()), rewriter
 
 
@@ -682,3 +682,57 @@ def test_a_call_after_a_corrected_arc_says_the_mode_it_inherits_and_guesses_none
     assert lines[lines.index("M98 P2000") + 1] == "X60. Z-20. R10."
     said = [w for w in reporter.warnings if "passes to a program that starts with G01" in w.message]
     assert len(said) == 1 and said[0].location.line == 5 and "had G02" in said[0].message
+
+
+def test_a_finishing_cycles_last_block_carries_its_label_on_its_last_piece():
+    """G70 P10 Q20 runs the blocks from N10 through N20: a replaced N20 split into several
+    carries N20 on its last (on its first, the finishing pass would stop after the first piece
+    and never cut the rest). N10, where the pass enters, keeps it on its first. A label that
+    both a pass enters (another cycle's P) and one ends at is refused when its block is split."""
+    text = ("G18 G21 G99 F0.1\nG00 X130. Z5.\nG01 X40. Z5.\nN10 G01 X40. Z-20.\nN20 G02 X80. Z-40. R20.\n"
+            "G00 X130. Z5.\nG70 P10 Q20\nG00 X200.\n")
+    shift = lambda piece: np.tile((0.003, -0.002), (len(piece.points), 1))
+    out, _ = rewrite(text, shift, mode="line", tolerance=0.001)  # the arc as lines: several blocks
+    lines = out.splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith("N10"))
+    pass_ = lines[first:lines.index("G00 X130. Z5.", first)]
+    assert pass_[-1].startswith("N20 ") and len(pass_) > 3 and not any(line.startswith("N20") for line in pass_[:-1])
+    with pytest.raises(SafetyError, match="its label N20 is wanted on the first of them"):
+        rewrite(text + "G70 P20 Q20\n", shift, mode="line", tolerance=0.001)  # N20 alone: entered and left
+
+
+@pytest.mark.parametrize("way_in", ["GOTO 100\n", "G50 X80. Z-20.\n#1=#1+1\nIF [#1 LT 2] GOTO 100\n"])
+def test_a_jump_target_relying_on_the_mode_a_replacement_changed_is_refused(way_in):
+    """A block relying on modal G02 at a label a jump reaches: which mode is in force depends on
+    the way in. The replaced arc before it leaves G01 in force (written as lines): writing G02 in
+    front would be a guess for the other ways in, leaving it would cut a line on this one."""
+    text = (f"G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nG02 X40. Z-10. R10.\n{way_in}N100 X60. Z-20. R10.\n"
+            "G00 X100.\n")
+    with pytest.raises(SafetyError, match="depends on how the program reaches it"):
+        rewrite(text, radial(0.003, lines={4}), mode="line", tolerance=0.001)
+
+
+def test_a_jump_target_relying_on_a_mode_still_in_force_is_written_as_it_was():
+    text = "G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nG02 X40. Z-10. R10.\nGOTO 100\nN100 X60. Z-20. R10.\nG00 X100.\n"
+    out, _ = rewrite(text, radial(0.003, lines={4}), mode="arc", tolerance=0.001)  # the arc stays an arc: G02 in force
+    assert "N100 X60. Z-20. R10." in out.splitlines()
+
+
+def test_a_block_the_control_may_skip_leaves_the_mode_to_the_next():
+    """``/X.. Z.. R..`` relying on G02 after a replaced arc gets G02 written in front; the
+    control may skip it, so the next block relying on G02 gets it too."""
+    text = "G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nG02 X40. Z-10. R10.\n/X60. Z-20. R10.\nX80. Z-30. R10.\nG00 X100.\n"
+    out, _ = rewrite(text, radial(0.003, lines={4}), mode="line", tolerance=0.001)
+    lines = out.splitlines()
+    assert "/G02 X60. Z-20. R10." in lines and "G02 X80. Z-30. R10." in lines
+
+
+def test_after_a_cycle_the_mode_it_gave_back_is_in_force_whatever_its_contour_ended_in():
+    """A G71 contour ending in an arc written as lines: after the cycle the control is back in
+    the mode it was in before the cycle (G00 here), so the block after it, relying on that, is
+    written as it was (not given the G02 its contour ended in)."""
+    text = ("G18 G21 G99 F0.1\nG00 X130. Z5.\nG71 U2. R0.5\nG71 P10 Q20 U0.5 W0.1 F0.25\nN10 G00 X40.\n"
+            "G01 Z-20.\nN20 G02 X80. Z-40. R20.\nX200. Z150.\n")
+    shift = lambda piece: np.tile((0.003, -0.002), (len(piece.points), 1))
+    out, _ = rewrite(text, shift, mode="line", tolerance=0.001)
+    assert out.splitlines()[-1] == "X200. Z150."
