@@ -8,7 +8,8 @@ import numpy as np
 
 from postproc.measure import ballbar_fit, error_map
 from postproc.measure.ballbar_analysis import Estimate, check_saved, paired, screen
-from postproc.compensator import Compensator, Measurements, Option, Piece
+from postproc.measure.parameters import check_fitted
+from postproc.compensator import MAX_UNCERTAINTY_MM, STOCK_MM, Compensator, Measurements, Option, Piece
 from postproc.diagnostics import Location, MeasurementError, ModelError, SafetyError
 from postproc.measure.figures import figures
 from postproc.hookspecs import hookimpl
@@ -80,10 +81,13 @@ class ErrorMap(Compensator):
     options = (
         Option("extrapolate", bool, False, "correct moves outside the region the measurements support"),
         Option("max-uncertainty", float, ballbar_fit.EFFECT_LIMIT_MM,
-               "largest 3-sigma (mm) of the backlash, the servo mismatch and the map inside its support", positive=True),
-        Option("stock", float, 0.0, "with --probe: how far outside this program's profile the measured part was cut"),
+               "largest 3-sigma (mm) of the backlash, the servo mismatch and the map inside its support", positive=True,
+               largest_mm=MAX_UNCERTAINTY_MM),
+        Option("stock", float, 0.0, "with --probe: how far outside this program's profile the measured part was cut",
+               largest_mm=STOCK_MM),
         Option("residual", float, None, "with --probe: the largest RMS residual of the probed part after the map and a "
-               "rigid motion, mm (default 3 x the probe file's repeatability_mm, or 0.003)", positive=True),
+               "rigid motion, mm (default 3 x the probe file's repeatability_mm, or 0.003)", positive=True,
+               largest_mm=0.1),
     )
 
     field: error_map.Field
@@ -104,6 +108,7 @@ class ErrorMap(Compensator):
         result = error_map.fit_map(samples, basis, ballbar_fit.machine_errors(samples, OTHERS), gauge)
         self.field, self.gauge = result.field, result.gauge
         self.parameters = {name: result.estimate(name) for name in OTHERS}
+        check_fitted(self.name, self.parameters, Location(ordered[0].path))
         self.setup_centres = [tuple(float(v) for v in centre) for centre in result.centres]
         self.regularisation = {"chosen_by": "REML", "weight_main": result.weights[0],
                                "weight_interaction": result.weights[1], "effective_parameters": result.edf,

@@ -38,7 +38,8 @@ class Iterative(TraceInversion):
 
     name = "iterative"
     options = TraceInversion.options + (
-        Option("selective", float, None, "add a residual only where it exceeds this many mm", positive=True),
+        Option("selective", float, None, "add a residual only where it exceeds this many mm", positive=True,
+               largest_mm=0.1),
     )
 
     def fit(self, measurements: Measurements) -> None:

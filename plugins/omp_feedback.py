@@ -8,7 +8,7 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from postproc.compensator import Option, Piece
+from postproc.compensator import STOCK_MM, Option, Piece
 from postproc.diagnostics import Location, MeasurementError
 from postproc.measure.features import MIN_TOUCHES, Feature, owners
 from postproc.measure.figures import figures
@@ -273,7 +273,8 @@ class OmpFeedback(ProbeCompensator):
 
     name = "omp-feedback"
     minimum = MIN_TOUCHES
-    options = (Option("stock", float, 0.0, "how far outside this program's profile the probed pass was cut, mm"),)
+    options = (Option("stock", float, 0.0, "how far outside this program's profile the probed pass was cut, mm",
+                      largest_mm=STOCK_MM),)
 
     def survey(self, moves: Iterable[Move]) -> None:
         self.probed = self.probed_chains(moves)

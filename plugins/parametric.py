@@ -10,9 +10,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from postproc.measure.parameters import Estimate, check_saved
+from postproc.measure.parameters import Estimate, check_fitted, check_saved
 from postproc.compensator import Measurements
-from postproc.diagnostics import ModelError
+from postproc.diagnostics import Location, ModelError
 from postproc.corrections.error_functions import ErrorFunctions
 from postproc.hookspecs import hookimpl
 
@@ -136,6 +136,7 @@ class Parametric(ErrorFunctions):
         for axis in self.joined:
             fitted.update(dict.fromkeys(SIDES[axis], fitted.pop(f"scaling_{axis}")))
         self.parameters = {name: fitted[name] for name in FITTED}
+        check_fitted(self.name, self.parameters, Location(traces[0].path))
         self.setup_centres = [result.centre(mount) for mount in range(len(samples.groups))]
         self.setup_centre = self.setup_centres[0]
         self._score(traces)

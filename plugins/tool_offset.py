@@ -6,7 +6,7 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from postproc.compensator import Option, Piece
+from postproc.compensator import STOCK_MM, Option, Piece
 from postproc.diagnostics import FitError, Location, MeasurementError, OptionError
 from postproc.measure.features import MIN_TOUCHES
 from postproc.measure.figures import figures
@@ -85,8 +85,9 @@ class ToolOffset(ProbeCompensator):
     minimum = MIN_TOUCHES
     options = (
         Option("residual", float, None, "largest registration residual that still counts as a right form, mm",
-               positive=True),
-        Option("stock", float, 0.0, "how far outside this program's profile the probed pass was cut, mm"),
+               positive=True, largest_mm=0.1),
+        Option("stock", float, 0.0, "how far outside this program's profile the probed pass was cut, mm",
+               largest_mm=STOCK_MM),
         Option("apply", str, "path", "move the path, or add the offset to the tool's wear with G10", APPLY),
         Option("offset", int, None, "wear offset number (default: the one the T word selected)", positive=True),
     )

@@ -84,6 +84,11 @@ def command(file, radius, direction, center_x, center_z, feed, start_angle, capt
                         ("--angle-offset", angle_offset)):
         if value is not None and not math.isfinite(value):
             raise UsageError(f"{name}: must be a finite number")
+    from ..measure.readers.ballbar import bar_length_problem
+
+    problem = bar_length_problem(radius)
+    if problem:
+        raise UsageError(f"--radius {radius:g}: {problem}")
     if capture_arc is not None and capture_arc > 360.0:
         raise UsageError(f"--capture-arc {capture_arc:g}: at most 360")
     if capture_arc is not None and start_angle is None:

@@ -50,6 +50,14 @@ class Piece:
         return points
 
 
+#: The largest stock allowance of a measured pass a compensator takes (mm): a semi-finish pass
+#: leaves a few tenths, a rough one a few mm; ``stock=20`` meant micrometres.
+STOCK_MM = 5.0
+#: The largest 3-sigma uncertainty of a fitted term a compensator can be told to accept (mm): ten
+#: times the default (docs/methods.md §4); above it the fit would be held to nothing.
+MAX_UNCERTAINTY_MM = 0.05
+
+
 @dataclass(frozen=True)
 class Option:
     """A setting a compensator declares: ``--option [PLUGIN.]KEY=VALUE``."""
@@ -60,6 +68,16 @@ class Option:
     help: str = ""
     choices: tuple[str, ...] = ()
     positive: bool = False
+    #: the largest size (mm) that makes sense for a length, or None: above it, most likely a
+    #: length in micrometres (``residual=5`` meant 5 um), refused with that reading
+    largest_mm: float | None = None
+
+    def _too_large(self, value: float) -> str | None:
+        if self.largest_mm is None or abs(value) <= self.largest_mm:
+            return None
+        hint = (f"; {value:g} um is {value / 1000:g} mm, if micrometres were meant"
+                if abs(value) / 1000 <= self.largest_mm else "")
+        return f"at most {self.largest_mm:g} mm (the option is in mm){hint}"
 
     def parse(self, text: str, plugin: str) -> Any:
         where = f"--option {plugin}.{self.key}={text}"
@@ -77,6 +95,9 @@ class Option:
                 raise OptionError(f"{where}: expected a number") from None
             if not math.isfinite(value) or (self.positive and value <= 0):
                 raise OptionError(f"{where}: expected a {'positive ' if self.positive else ''}finite number")
+            problem = self._too_large(value)
+            if problem:
+                raise OptionError(f"{where}: {problem}")
             return value
         if self.choices and text not in self.choices:
             raise OptionError(f"{where}: expected one of {', '.join(self.choices)}")
@@ -99,6 +120,9 @@ class Option:
                     self.positive and value <= 0):
                 kind = "whole number" if self.kind is int else "number"
                 raise ModelError(f"{name}: expected a {'positive ' if self.positive else ''}finite {kind}", where)
+            problem = self._too_large(value)
+            if problem:
+                raise ModelError(f"{name}: {problem}", where)
             return self.kind(value)
         if not isinstance(value, str) or (self.choices and value not in self.choices):
             expected = f"one of {', '.join(self.choices)}" if self.choices else "a string"

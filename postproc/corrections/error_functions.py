@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
-from ..compensate.compensator import Compensator, Measurements, Option, Piece
+from ..compensate.compensator import MAX_UNCERTAINTY_MM, Compensator, Measurements, Option, Piece
 from ..diagnostics import Location, MeasurementError
 from ..measure.parameters import EFFECT_LIMIT_MM
 
@@ -48,7 +48,8 @@ class ErrorFunctions(Compensator):
     options = (
         Option("extrapolate", bool, False, "use the error functions beyond the box the test arcs span"),
         Option("max-uncertainty", float, EFFECT_LIMIT_MM,
-               "largest 3-sigma effect (mm) of a fitted parameter the arcs must reach", positive=True),
+               "largest 3-sigma effect (mm) of a fitted parameter the arcs must reach", positive=True,
+               largest_mm=MAX_UNCERTAINTY_MM),
     )
 
     centre: tuple[float, float]

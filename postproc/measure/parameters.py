@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..diagnostics import ModelError
+from ..diagnostics import Location, MeasurementError, ModelError
 
 EFFECT_LIMIT_MM = 0.005  #: largest 3-sigma effect of a parameter that is reported or applied
 MAX_SCALING = 500e-6  #: beyond this no machine scales: a wrong radius or unit
@@ -51,6 +51,18 @@ def beyond_bounds(name: str, value: float) -> str | None:
     low, high, unit, scale, meaning = bound
     return (f"{name} {value * scale:+.1f} {unit} is beyond {low * scale:+.0f} .. {high * scale:+.0f} {unit}: "
             f"{meaning}")
+
+
+def check_fitted(compensator: str, parameters: dict[str, Estimate], where: Location) -> None:
+    """Hold the parameters a fit gives to the :data:`BOUNDS` a saved model is held to: a term
+    the arcs hold only loosely (a sliver of one side, an ``--option max-uncertainty`` set wide)
+    can come out far beyond what any machine has, and would be applied as it is."""
+    for name, e in parameters.items():
+        beyond = beyond_bounds(name, e.value)
+        if beyond is not None:
+            raise MeasurementError(f"{compensator}: the fit gives {beyond}; the arcs hold this term too loosely "
+                                   "(measure a longer arc on that side, or keep --option max-uncertainty at its "
+                                   "default) or the traces are in another unit", where)
 
 
 def check_saved(compensator: str, parameters: dict[str, Estimate]) -> None:

@@ -231,6 +231,27 @@ class CalibrationModel:
                    np.array(data["calibrated_theta_deg"], dtype=float), candidates)
 
 
+#: A touch-trigger probe triggers after contact, so the touched artifact reads smaller than it is
+#: by the pretravel: some micrometres, a few tens with a long stylus. Touches that read it larger
+#: (beyond the noise), or smaller by more than this, come from a wrong radius in the file.
+MAX_PRETRAVEL_MM = 0.05
+LARGER_MM = 0.005  #: how much larger the artifact may read, at the median touch: noise
+
+
+def _physical(k: np.ndarray, source: str) -> None:
+    """Refuse touches no probe gives: the artifact read larger than it is (a trigger before
+    contact), or smaller by more than any pretravel."""
+    median, least = float(np.median(k)), float(k.min())
+    if median > LARGER_MM or least < -MAX_PRETRAVEL_MM:
+        found = (f"the touches read the artifact {median * 1000:+.1f} um larger than it is at the median touch (a "
+                 "probe triggers after contact: it reads it smaller)" if median > LARGER_MM else
+                 f"a touch reads the artifact {-least * 1000:.1f} um smaller than it is, more than the "
+                 f"{MAX_PRETRAVEL_MM * 1000:g} um of pretravel a touch-trigger probe has")
+        raise MeasurementError(f"{found}: artifact_radius_mm or stylus_radius_mm in the file is most likely not the "
+                               "one measured (the artifact's certificate, the stylus as fitted): correct it, or "
+                               "calibrate again", Location(source))
+
+
 def fit_calibration(runs: CalibrationRun | Sequence[CalibrationRun], model: str | None = None) -> CalibrationModel:
     """Choose and fit the pretravel model of one or several calibration runs (same stylus).
 
@@ -247,6 +268,7 @@ def fit_calibration(runs: CalibrationRun | Sequence[CalibrationRun], model: str 
     k = np.concatenate([run.factors() for run in runs])
     if len(k) < 3:
         raise MeasurementError(f"{len(k)} touches: a calibration needs at least 3", Location(source))
+    _physical(k, source)
     frame = Frame.around(theta)
     u = frame.unwrap(theta)
     scored = []

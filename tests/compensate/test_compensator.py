@@ -80,3 +80,31 @@ def test_one_setting_given_two_values_is_refused_whatever_the_order(texts):
 def test_one_value_given_twice_or_a_compensators_own_over_the_general_is_taken(texts, expected):
     """PLUGIN.KEY=VALUE is that compensator's whatever the order, as formats.md §8.1 scopes it."""
     assert parse_options(texts, [_One, _Two]) == expected
+
+
+@pytest.mark.parametrize("key, text, meant", [("max-uncertainty", "5", "0.005 mm"), ("stock", "20", "0.02 mm"),
+                                              ("residual", "5", "0.005 mm"), ("stock", "-30", "-0.03 mm")])
+def test_a_length_option_far_too_large_is_refused_as_micrometres(key, text, meant):
+    """Every length a compensator takes as an option is in mm: ``residual=5`` meant 5 um would
+    turn a form check off, ``max-uncertainty=5`` hold a fit to nothing. Above the largest that
+    makes sense it is refused, with the reading in micrometres; from a saved model too."""
+    from postproc.compensate.compensator import MAX_UNCERTAINTY_MM, STOCK_MM
+    from postproc.diagnostics import Location, ModelError
+
+    option = Option(key, float, None, positive=not text.startswith("-"),
+                    largest_mm={"max-uncertainty": MAX_UNCERTAINTY_MM, "stock": STOCK_MM, "residual": 0.1}[key])
+    with pytest.raises(OptionError, match=rf"at most .* mm \(the option is in mm\); {text} um is {meant}"):
+        option.parse(text, "p")
+    with pytest.raises(ModelError, match="the option is in mm"):
+        option.check(float(text), Location("m.json"))
+    assert option.parse(str(float(text) / 1000), "p") == float(text) / 1000
+
+
+def test_every_length_option_of_the_built_in_compensators_has_its_largest():
+    """The class, not the three found: each float option whose help speaks of mm is bounded."""
+    from postproc.compensate import registry
+
+    for name, installed in registry.compensators().items():
+        for option in installed.cls.options:
+            if option.kind is float and ("mm" in option.help or option.key in ("stock", "residual")):
+                assert option.largest_mm is not None, (name, option.key)

@@ -447,7 +447,20 @@ def test_a_radius_that_is_not_the_bars_is_named(tmp_path, run):
     result = run("compensate", HEMISHELL, "--plugin", "parametric", *(a for p in paths for a in ("--ballbar", p)))
     assert result.exit_code == 3 and result.stdout == ""
     assert "beyond 500 ppm" in result.stderr and "is radius_mm (4 mm) the bar's length" in result.stderr
+    assert f"{paths[0]}:2: warning: radius_mm = 4 is shorter than any ballbar" in result.stderr
     assert "warning: scaling X +1979 ppm and scaling Z -2519 ppm are beyond 500 ppm" in invoke(*paths).stderr
+
+
+@pytest.mark.parametrize("radius", [1001, 100000, 1e9])
+def test_a_radius_no_circular_test_has_is_refused_at_its_line(tmp_path, run, radius):
+    """The sample test read as if the bar were 100000 mm long (written in um): its scaling
+    comes out a thousand times too small and the correction loses it, silently. No circular test
+    is that large: the header line is refused, with the unit it most likely is in."""
+    paths = edited(tmp_path, lambda d, text: text.replace("# radius_mm = 100\n", f"# radius_mm = {radius:g}\n"))
+    result = run("compensate", HEMISHELL, "--plugin", "parametric", *(a for p in paths for a in ("--ballbar", p)))
+    assert result.exit_code == 3 and result.stdout == ""
+    assert result.stderr.startswith(f"{paths[0]}:2: error: radius_mm = {radius:g} is above 1000") and "in um" in result.stderr
+    assert invoke(*paths).exit_code == 3
 
 
 def test_a_mean_radius_error_is_named_as_the_wrong_radius(tmp_path):

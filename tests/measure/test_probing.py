@@ -490,3 +490,22 @@ def test_a_feature_with_too_many_bad_points_names_itself():
     y[[2, 5, 8, 11, 14, 17]] += 0.02
     with pytest.raises(MeasurementError, match=r"^p\.csv: error: the face on line 4: 6 of 20 points lie more than"):
         screen(y, s, groups=np.zeros(20, dtype=int), names=["the face on line 4"], path="p.csv")
+
+
+@pytest.mark.parametrize("change_mm, found", [(0.05, "smaller than it is, more than the 50 um"),
+                                               (-0.05, "larger than it is at the median touch")])
+def test_a_calibration_with_a_wrong_artifact_radius_is_refused(tmp_path, change_mm, found):
+    """A touch-trigger probe reads the artifact smaller than it is, by its pretravel (a few um to
+    a few tens): the sample calibration with its artifact_radius_mm off by 0.05 mm reads it
+    larger, or smaller by far more, and would set a pretravel that moves every probed point."""
+    from support import SAMPLES
+
+    text = (SAMPLES / "probe" / "artifact-calibration.csv").read_text()
+    line = next(l for l in text.splitlines() if l.startswith("# artifact_radius_mm"))
+    radius = float(line.split("=")[1])
+    edited = tmp_path / "cal.csv"
+    edited.write_text(text.replace(line, f"# artifact_radius_mm = {radius + change_mm:.4f}"))
+    fit_calibration(read_calibration(str(SAMPLES / "probe" / "artifact-calibration.csv")))  # the sample itself fits
+    with pytest.raises(MeasurementError, match="artifact_radius_mm or stylus_radius_mm") as refused:
+        fit_calibration(read_calibration(str(edited)))
+    assert found in str(refused.value) and str(refused.value).startswith(str(edited))

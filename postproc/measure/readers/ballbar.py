@@ -167,10 +167,29 @@ def repeated_angle(angles: np.ndarray) -> tuple[int, int] | None:
     return None
 
 
+#: The lengths a telescoping ballbar measures at, mm: 50 mm (the small-circle set) to about 600 mm
+#: (the longest bar with its extensions). A radius far above is a length in micrometres, refused
+#: (a grid encoder's circle is smaller still); one below is said, since a grid encoder's circular
+#: test runs at a few mm, but a ballbar's in inches reads 4 for 100 mm.
+BAR_LENGTH_MM = (50.0, 1000.0)
+TOO_LONG = "no circular test is that large (a ballbar: 50 to about 600 mm): a length in um written as mm?"
+
+
+def bar_length_problem(radius: float) -> str | None:
+    """What is wrong with a test radius no ballbar or grid encoder measures at, or None."""
+    if radius > BAR_LENGTH_MM[1]:
+        return f"above {BAR_LENGTH_MM[1]:g} mm: {TOO_LONG}"
+    return None
+
+
 def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6, max_deviation: float = 1.0) -> BallbarTrace:
     """Read and process a trace in either form; refuses every problem with its position."""
     table = read_table(path, MAGIC, KEYS, [PROCESSED, RAW])
-    radius = table.number("radius_mm", positive=True, required=True)
+    radius = table.number("radius_mm", positive=True, required=True, at_most=(BAR_LENGTH_MM[1], TOO_LONG))
+    if radius < BAR_LENGTH_MM[0] and reporter is not None:
+        reporter.warn(f"radius_mm = {radius:g} is shorter than any ballbar ({BAR_LENGTH_MM[0]:g} to about 600 mm): "
+                      f"right for a grid encoder's small circle; a ballbar's test written in inches or cm is in the "
+                      f"wrong unit (every length of the file, the deviations too)", Location(path, table.header["radius_mm"][1]))
     direction = table.choice("direction", ("ccw", "cw"), required=True, meaning="ccw: the G03 run, cw: the G02 run")
     centre = (table.number("center_x_mm", 0.0), table.number("center_z_mm", 0.0))
     feed = table.number("feed_mm_min", positive=True)
@@ -212,6 +231,9 @@ def make_trace(path: str, radius: float, direction: str, angles, deviations, cen
     """A trace from its samples as any reader finds them: angles (degrees, any order, taken
     modulo 360) and deviations (mm). Sorts them, holds them to the minimum evidence and removes
     the set-up centre (unless ``centered``) as :func:`read_ballbar` does; for shop readers."""
+    problem = bar_length_problem(float(radius))
+    if problem:
+        raise MeasurementError(f"a test radius of {float(radius):g} mm is {problem}", Location(path))
     angles = np.mod(np.asarray(angles, dtype=float), 360.0)
     angles[angles >= 360.0] = 0.0  # np.mod(-1e-17, 360) is 360
     deviations = np.asarray(deviations, dtype=float)
