@@ -108,7 +108,8 @@ class ErrorMap(Compensator):
         result = error_map.fit_map(samples, basis, ballbar_fit.machine_errors(samples, OTHERS), gauge)
         self.field, self.gauge = result.field, result.gauge
         self.parameters = {name: result.estimate(name) for name in OTHERS}
-        check_fitted(self.name, self.parameters, Location(ordered[0].path))
+        if not self.context.force:
+            check_fitted(self.name, self.parameters, Location(ordered[0].path))
         self.setup_centres = [tuple(float(v) for v in centre) for centre in result.centres]
         self.regularisation = {"chosen_by": "REML", "weight_main": result.weights[0],
                                "weight_interaction": result.weights[1], "effective_parameters": result.edf,

@@ -136,7 +136,8 @@ class Parametric(ErrorFunctions):
         for axis in self.joined:
             fitted.update(dict.fromkeys(SIDES[axis], fitted.pop(f"scaling_{axis}")))
         self.parameters = {name: fitted[name] for name in FITTED}
-        check_fitted(self.name, self.parameters, Location(traces[0].path))
+        if not self.context.force:  # --force applies traces refused for a wrong radius or unit, as it says
+            check_fitted(self.name, self.parameters, Location(traces[0].path))
         self.setup_centres = [result.centre(mount) for mount in range(len(samples.groups))]
         self.setup_centre = self.setup_centres[0]
         self._score(traces)

@@ -37,7 +37,7 @@ from ..interpret import gcodes as G
 from . import registry
 from .lead import Lead
 from .compensator import Compensator, Context, Measurements, check_options, parse_options
-from ..diagnostics import (InternalError, Location, ModelError, PluginError, PostprocError, Reporter, SafetyError,
+from ..diagnostics import (InternalError, Location, MeasurementError, ModelError, PluginError, PostprocError, Reporter, SafetyError,
                            UsageError)
 from ..measure.readers.csvfile import snapshot as measurement_snapshot
 from ..interpret.motion import ARC, LINE, Step
@@ -113,6 +113,11 @@ class Pipeline:
         try:
             self._guarded(fresh, "load of its own model", fresh.load, saved["model"])
         except ModelError as exc:
+            if compensator.context.force:  # what --force let the fit keep: no saved model may hold it
+                raise MeasurementError(
+                    f"{compensator.name}: --force kept what the measurements are refused for, and a saved model is held "
+                    f"to it again ({exc.message}); give the measurements to compensate with --force to apply them to one "
+                    "run, or measure again", Location(self.inputs[0][0] if self.inputs else None)) from None
             raise PluginError(compensator.name, f"its model would not load back: {exc.message}") from None
         except SafetyError:  # a refusal --force overrides: compensate --model says it again
             pass

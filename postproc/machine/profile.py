@@ -200,6 +200,11 @@ def _readable_decimals(profile: MachineProfile, unit: str, inch: bool, where: Lo
                           f"control's own increment system as input_increment", where)
 
 
+#: How far from the work origin a soft limit may lie, mm: further than the largest lathe reaches
+#: (a 20 m shaft, a 25 m vertical lathe's table), so that a limit in um is refused
+MAX_LIMIT_MM = 100_000.0
+
+
 def _checked(name: str, value: Any, where: Location) -> Any:
     default = getattr(DEFAULT, name)
     if name in ("x_limits", "z_limits"):
@@ -214,6 +219,10 @@ def _checked(name: str, value: Any, where: Location) -> Any:
             raise OptionError(f"{name}: the limits must be finite numbers", where)
         if not low < high:
             raise OptionError(f"{name}: the first limit must be below the second", where)
+        if max(abs(low), abs(high)) > MAX_LIMIT_MM:
+            raise OptionError(f"{name} = [{low:g}, {high:g}]: beyond {MAX_LIMIT_MM / 1000:g} m from the work origin, "
+                              f"further than any lathe reaches: written in um? ([{low / 1000:g}, {high / 1000:g}] mm)",
+                              where)
         return (low, high)
     if isinstance(default, bool):
         if not isinstance(value, bool):

@@ -67,10 +67,10 @@ class LabelIndex:
     """Which labels control may jump to (a GOTO's, an M99 P's, an M98 Q's), which programs are called from where, and (scanned
     only when a cycle asks) where each sequence number stands."""
 
-    def __init__(self, goto_targets=None, computed_goto: bool = False, calls=None, scan=None, cycle_ranges=None):
+    def __init__(self, goto_targets=None, computed_goto: bool = False, calls=None, scan=None, cycle_scan=None):
         self.goto_targets: set[int] = goto_targets or set()
-        #: the P and the Q labels of the G70-G73 cycles (None for a label an expression gives: any may be one)
-        self.cycle_starts, self.cycle_ends = cycle_ranges or (set(), set())
+        self._cycle_scan = cycle_scan
+        self._cycle_ranges: tuple[set, set] | None = None if cycle_scan else (set(), set())
         self.computed_goto = computed_goto  #: a GOTO whose target is an expression: any label may be a target
         self.calls: dict[int, int] = calls or {}  #: program number -> places that call it (M98/G65)
         self._scan = scan
@@ -112,6 +112,22 @@ class LabelIndex:
         ``line`` (:meth:`program_of`): the control looks for a cycle's P and Q there only."""
         _, first, last = self.program_of(line)
         return [place for place in self._lines.get(label, ()) if first <= place and (last is None or place <= last)]
+
+    @property
+    def cycle_starts(self) -> set[int | None]:
+        """The P labels of the program's G70-G73 cycles (None for one an expression gives: any
+        label may be it); scanned when first asked, as only a split labelled block asks."""
+        return self._ranges()[0]
+
+    @property
+    def cycle_ends(self) -> set[int | None]:
+        """The Q labels of the program's G70-G73 cycles, as :attr:`cycle_starts`."""
+        return self._ranges()[1]
+
+    def _ranges(self) -> tuple[set[int | None], set[int | None]]:
+        if self._cycle_ranges is None:
+            self._cycle_ranges = self._cycle_scan()
+        return self._cycle_ranges
 
     @property
     def counts(self) -> dict[int, int]:
@@ -252,12 +268,8 @@ class Source:
         targets: set[int] = set()
         calls: dict[int, int] = {}
         computed = False
-        ranges: dict[bytes, set[int | None]] = {b"p": set(), b"q": set()}
         for chunk in self.chunks():
             chunk = chunk.lower()
-            for pattern in _CYCLE_RANGE:
-                for match in pattern.finditer(chunk):
-                    _cycle_range(chunk, match.start(), ranges)
             called = {match.start(1): match.group(1) for pattern in _CALLS for match in pattern.finditer(chunk)}
             for spelled in called.values():  # one P word is one call, whichever code reads it
                 number = int(spelled.replace(b" ", b"").replace(b"\t", b""))
@@ -270,7 +282,17 @@ class Source:
                         targets.add(int(target))
                     else:
                         computed = True
-        return LabelIndex(targets, computed, calls, scan=self._label_places, cycle_ranges=(ranges[b"p"], ranges[b"q"]))
+        return LabelIndex(targets, computed, calls, scan=self._label_places, cycle_scan=self._cycle_ranges)
+
+    def _cycle_ranges(self) -> tuple[set[int | None], set[int | None]]:
+        """The P and the Q labels of every G70-G73 cycle in the file, a chunk at a time."""
+        ranges: dict[bytes, set[int | None]] = {b"p": set(), b"q": set()}
+        for chunk in self.chunks():
+            chunk = chunk.lower()
+            for pattern in _CYCLE_RANGE:
+                for match in pattern.finditer(chunk):
+                    _cycle_range(chunk, match.start(), ranges)
+        return ranges[b"p"], ranges[b"q"]
 
     def _label_places(self) -> tuple[dict[int, list[int]], dict[int, int], list[tuple[int, str]], list[int]]:
         """Scan the whole program, a chunk at a time, for the lines of its sequence numbers, of

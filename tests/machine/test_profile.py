@@ -211,3 +211,18 @@ def test_profile_show_checks_the_whole_profile_before_it_prints_anything(run, tm
     result = run("profile", "show", "--machine", str(machine))
     assert (result.exit_code, result.stdout) == (3, "")
     assert result.stderr.startswith(f"{machine}"), result.stderr
+
+
+@pytest.mark.parametrize("key, limits", [("x_limits", [-5000, 265000]), ("z_limits", [-450000, 450000]),
+                                         ("x_limits", [-1e6, 0])])
+def test_soft_limits_in_micrometres_are_refused(key, limits):
+    """Soft limits written in um (265000 for 265 mm) would lift every check against travel: a
+    limit further than any lathe reaches (100 m) is refused at its key, with the mm reading.
+    A large machine's real limits (a 20 m bed) are read."""
+    from postproc.diagnostics import OptionError
+
+    text = f"{key} = [{limits[0]}, {limits[1]}]\n"
+    with pytest.raises(OptionError, match=r"further than any lathe reaches: written in um\?") as refused:
+        from_mapping(tomllib.loads(text), "p.toml", text)
+    assert str(refused.value).startswith("p.toml:1:1: error:")
+    assert from_mapping({"z_limits": [-20000.0, 500.0]}).z_limits == (-20000.0, 500.0)

@@ -449,6 +449,12 @@ def test_a_radius_that_is_not_the_bars_is_named(tmp_path, run):
     assert "beyond 500 ppm" in result.stderr and "is radius_mm (4 mm) the bar's length" in result.stderr
     assert f"{paths[0]}:2: warning: radius_mm = 4 is shorter than any ballbar" in result.stderr
     assert "warning: scaling X +1979 ppm and scaling Z -2519 ppm are beyond 500 ppm" in invoke(*paths).stderr
+    forced = run("compensate", HEMISHELL, "--plugin", "parametric", "--force", *(a for p in paths for a in ("--ballbar", p)))
+    assert forced.exit_code == 0 and "beyond 500 ppm" in forced.stderr  # --force applies them, as it says
+    model = tmp_path / "m.json"
+    fitted = run("fit", "--plugin", "parametric", "--force", *(a for p in paths for a in ("--ballbar", p)), "-o", str(model))
+    assert fitted.exit_code == 3 and not model.exists()  # the traces' fault, not the plugin's (exit 5)
+    assert "--force kept what the measurements are refused for" in fitted.stderr and "compensate with --force" in fitted.stderr
 
 
 @pytest.mark.parametrize("radius", [1001, 100000, 1e9])
