@@ -84,7 +84,7 @@ def command(file, radius, direction, center_x, center_z, feed, start_angle, capt
                         ("--angle-offset", angle_offset)):
         if value is not None and not math.isfinite(value):
             raise UsageError(f"{name}: must be a finite number")
-    from ..measure.readers.ballbar import bar_length_problem
+    from ..measure.parameters import bar_length_problem
 
     problem = bar_length_problem(radius)
     if problem:

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..compensate.compensator import MAX_UNCERTAINTY_MM, Compensator, Measurements, Option, Piece
 from ..diagnostics import Location, MeasurementError
-from ..measure.parameters import EFFECT_LIMIT_MM
+from ..measure.parameters import EFFECT_LIMIT_MM, bar_length_problem
 
 if TYPE_CHECKING:  # a saved model's run reads no trace
     from ..measure.readers.ballbar import BallbarTrace
@@ -148,6 +148,8 @@ class ErrorFunctions(Compensator):
         self.radius = float(model["radius_mm"])
         if not self.radius > 0:
             raise ValueError(f"radius_mm {self.radius} is not positive")
+        if bar_length_problem(self.radius):
+            raise ValueError(f"radius_mm {self.radius:g} is {bar_length_problem(self.radius)}")
         box = model.get("box_mm")
         if box is None:  # a model saved before partial arcs: the square of the whole circle
             (xc, zc), r = self.centre, self.radius

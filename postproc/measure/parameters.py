@@ -23,6 +23,21 @@ MAX_SQUARENESS = 500e-6  #: rad; as MAX_SCALING: 50 um over 100 mm of Z, an axis
 MAX_SERVO_MISMATCH = 0.100  #: mm; 6 ms of lag between the axes at 1000 mm/min, a control to tune, or a unit
 
 
+#: The lengths a telescoping ballbar measures at, mm: 50 mm (the small-circle set) to about 600 mm
+#: (the longest bar with its extensions). A radius far above is a length in micrometres, refused
+#: (a grid encoder's circle is smaller still); one below is said, since a grid encoder's circular
+#: test runs at a few mm, but a ballbar's in inches reads 4 for 100 mm.
+BAR_LENGTH_MM = (50.0, 1000.0)
+TOO_LONG = "no circular test is that large (a ballbar: 50 to about 600 mm): a length in um written as mm?"
+
+
+def bar_length_problem(radius: float) -> str | None:
+    """What is wrong with a test radius no ballbar or grid encoder measures at, or None."""
+    if radius > BAR_LENGTH_MM[1]:
+        return f"above {BAR_LENGTH_MM[1]:g} mm: {TOO_LONG}"
+    return None
+
+
 @dataclass(frozen=True, slots=True)
 class Estimate:
     """A fitted parameter and its 1-sigma uncertainty."""

@@ -342,3 +342,10 @@ def test_fit_never_writes_a_model_that_compensate_would_refuse(run, tmp_path, ma
             result.stderr
     finally:
         registry.manager().unregister(plugin)
+
+
+@pytest.mark.parametrize("radius", [1001.0, 100000.0])
+def test_a_saved_model_whose_test_radius_no_ballbar_has_is_refused(parametric_model, radius):
+    """radius_mm in um, its SHA-256 made again: refused as the trace it came from would be."""
+    stderr = _refused(_edited(parametric_model, ("radius_mm",), radius))
+    assert f"radius_mm {radius:g} is above 1000 mm" in stderr and "in um" in stderr

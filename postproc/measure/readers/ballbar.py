@@ -31,6 +31,7 @@ import numpy as np
 from .. import ballbar_fit
 from ..ballbar_fit import MAX_GAP_DEG
 from ...diagnostics import Location, MeasurementError, Reporter
+from ..parameters import BAR_LENGTH_MM, TOO_LONG, bar_length_problem
 from .csvfile import read_table
 
 MAGIC = "# postproc ballbar 1"
@@ -164,21 +165,6 @@ def repeated_angle(angles: np.ndarray) -> tuple[int, int] | None:
         if key in seen:
             return index, seen[key]
         seen[key] = index
-    return None
-
-
-#: The lengths a telescoping ballbar measures at, mm: 50 mm (the small-circle set) to about 600 mm
-#: (the longest bar with its extensions). A radius far above is a length in micrometres, refused
-#: (a grid encoder's circle is smaller still); one below is said, since a grid encoder's circular
-#: test runs at a few mm, but a ballbar's in inches reads 4 for 100 mm.
-BAR_LENGTH_MM = (50.0, 1000.0)
-TOO_LONG = "no circular test is that large (a ballbar: 50 to about 600 mm): a length in um written as mm?"
-
-
-def bar_length_problem(radius: float) -> str | None:
-    """What is wrong with a test radius no ballbar or grid encoder measures at, or None."""
-    if radius > BAR_LENGTH_MM[1]:
-        return f"above {BAR_LENGTH_MM[1]:g} mm: {TOO_LONG}"
     return None
 
 
