@@ -131,6 +131,14 @@ def call_word(block: Block) -> Word | None:
     return None
 
 
+def last_along(entry: Entry) -> tuple[Move, Edit | None] | None:
+    """The step's last move along the program (a cutting move, not an approach or retract), with
+    its edit; None for a step with none: where the tool ends, for the blocks after it."""
+    moves = entry.step.moves
+    along = [index for index, move in enumerate(moves) if move.role in (RUN, CONTOUR, CORNER)]
+    return (moves[along[-1]], entry.edits[along[-1]]) if along else None
+
+
 #: The incremental address of another axis (FANUC G-code system A): H for C, V for Y.
 _INCREMENTAL_OF = {"H": "C", "V": "Y"}
 

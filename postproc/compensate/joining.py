@@ -11,7 +11,7 @@ from ..diagnostics import Location, UnplannableBlock
 from ..interpret import gcodes as G
 from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Step
 from ..syntax.blocks import Block
-from .edits import INTERFERENCE, NUMBERS, Entry, _as_it_is, _group, macro_word
+from .edits import INTERFERENCE, NUMBERS, Entry, _as_it_is, _group, last_along, macro_word
 from .segmenter import Cut
 
 JOIN = 1e-9  #: nominal points closer than this are the same point
@@ -87,11 +87,10 @@ class Joining:
         refusal of a join under G41/G42; None: a long stretch without motion. After a cycle's
         contour the tool stands at the cycle's start point, not at the contour's end: nothing
         goes back."""
-        moves = previous.step.moves
-        along = [index for index, move in enumerate(moves) if move.role in _ALONG]
-        if not along:
+        last = last_along(previous)
+        if last is None:
             return
-        last_move, last_edit = moves[along[-1]], previous.edits[along[-1]]
+        last_move, last_edit = last
         if last_edit is None or None in (last_move.x1, last_move.z1) or last_move.role == CONTOUR:
             return
         last_edit.lead_out = self._connector(last_edit.end, (last_move.x1, last_move.z1), previous.step,

@@ -12,10 +12,10 @@ import math
 import numpy as np
 
 from ..diagnostics import Location, UnplannableBlock
-from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Step
+from ..interpret.motion import ARC, LINE, RAPID, Step
 from ..machine.resolution import Grid
 from . import monotone
-from .edits import BLOCK_TIME, CALL, INTERFERENCE, Edit, call_word, Entry, _as_it_is, _one_block_for_other_axes, _rounded_up, _where
+from .edits import BLOCK_TIME, CALL, INTERFERENCE, Edit, Entry, _as_it_is, call_word, last_along, _one_block_for_other_axes, _rounded_up, _where
 from .segmenter import (LINE_MODE, RADIUS_CHECK, RESOLUTION, TOLERANCE, Cut, Limits, Plan, PlanError, Segmenter, Target,
                         plan)
 from .batch_plans import batch_plans
@@ -66,10 +66,10 @@ class Planning:
         No move back to it can stand between the two, so a correction that moves that end
         refuses the block (an incremental subprogram would run shifted by it)."""
         step = entry.step
-        along = [index for index, move in enumerate(step.moves) if move.role in (RUN, CONTOUR, CORNER)]
-        if not along:
+        last = last_along(entry)
+        if last is None:
             return
-        move, edit = step.moves[along[-1]], entry.edits[along[-1]]
+        move, edit = last
         nominal = (move.x1, move.z1)
         if edit is None or None in nominal or self._snap(step, edit.end) == self._snap(step, nominal):
             return

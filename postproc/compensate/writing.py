@@ -14,7 +14,7 @@ import numpy as np
 from ..diagnostics import Location, SafetyError
 from ..interpret import gcodes as G
 from ..interpret.motion import RAPID, Step
-from ..syntax.blocks import Block
+from ..syntax.blocks import Block, Word
 from .edits import NAMED, NUMBERS, REFUSE, Entry, _as_it_is, _group, _one_block_for_other_axes, _where, call_word, macro_word
 from .emitter import Style, with_motion_code, writer_for
 from .segmenter import Cut
@@ -60,9 +60,9 @@ class Writing:
                     return [with_motion_code(block, writer.code(wanted, Style.of(block)))]
             if sets_mode or self.mode_now is None:
                 self.mode_now = step.modal.motion
-            elif fields is None and call_word(block) is not None:
+            elif fields is None and (call := call_word(block)) is not None:
                 if self.mode_now != before and before is not None:
-                    self._mode_into_call(step, before)
+                    self._mode_into_call(step, call, before)
                 self.mode_now = None  # what the called program leaves in force (or the caller, after M99)
             self._follow_contour(step, None)
             if step.contour_end:
@@ -121,14 +121,13 @@ class Writing:
             f"it): give the move a block of its own between two labelled ones, or a wider --tolerance that keeps it "
             f"one block", Location(self.file, block.line, block.words[0].col + 1 if block.words else None, block.text))
 
-    def _mode_into_call(self, step: Step, mode: int) -> None:
+    def _mode_into_call(self, step: Step, word: Word, mode: int) -> None:
         """A call or return written where the replacement before it left another motion mode in
         force than the program had (a corrected arc ends with a G01 back to its nominal end, or
         was written as lines): the program it passes to goes on in that mode, and a block there
         that relies on the mode it inherits (``X.. Z.. R..`` under G02) would run otherwise.
         Said, not refused: most programs state their moves' G codes."""
         block = step.block
-        word = call_word(block)
         returns = word.letter == "M" and type(word.value) is str and int(float(word.value)) == 99
         where = "returns to a program that goes on" if returns else "passes to a program that starts"
         then = "the caller's next move" if returns else "the called program's first move"
