@@ -17,11 +17,10 @@ from ..geometry import QUADRANTS, Arc, Line, Segment, reversal_params_of, segmen
 from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Move, Step
 from . import monotone
 from .compensator import Piece
-from .edits import Edit, Entry
+from .edits import ALONG, Edit, Entry
 from .segmenter import Target, measure_bends, sample_params
 
 STEPS = (0.0005, 0.001)  #: the output grid's x and z steps (radius mm) of a metric diameter program
-_ALONG = (RUN, CONTOUR, CORNER)  #: the roles of the moves that run along the program
 _TRAVELLED = (LINE, ARC, RAPID)  #: the kinds of move whose travel :func:`travel_after` follows
 _QUARTER_TURNS = np.array(QUADRANTS) * (math.pi / 2)  #: where an axis of a circle reverses, radians
 
@@ -218,7 +217,7 @@ class Correcting:
             open_ = (step.interpreted and not step.shared and step.block.delete is None
                      and not (step.contour_start and step.cycle in monotone.ONE_WAY_CYCLES))
             for index, move in enumerate(moves):
-                if move.role not in _ALONG:
+                if move.role not in ALONG:
                     continue
                 kind = move.kind
                 if move.xc is None and move.exact and kind in _TRAVELLED and move.known:  # a line

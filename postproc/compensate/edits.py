@@ -25,6 +25,8 @@ from .segmenter import Cut, Limits, Plan, Target, sample_params
 #: are written as numbers (the block then no longer follows the variables).
 REFUSE, KEEP, NUMBERS = "refuse", "keep", "numbers"
 MACRO_VALUES = (REFUSE, KEEP, NUMBERS)
+ALONG = (RUN, CONTOUR, CORNER)  #: the roles of the moves that run along the program
+JOIN = 1e-9  #: mm: nominal points closer than this are the same point
 NAMED = 5  #: blocks named one by one in the warnings about macro values; the rest are counted
 
 
@@ -135,7 +137,7 @@ def last_along(entry: Entry) -> tuple[Move, Edit | None] | None:
     """The step's last move along the program (a cutting move, not an approach or retract), with
     its edit; None for a step with none: where the tool ends, for the blocks after it."""
     moves = entry.step.moves
-    along = [index for index, move in enumerate(moves) if move.role in (RUN, CONTOUR, CORNER)]
+    along = [index for index, move in enumerate(moves) if move.role in ALONG]
     return (moves[along[-1]], entry.edits[along[-1]]) if along else None
 
 

@@ -9,13 +9,11 @@ from __future__ import annotations
 
 from ..diagnostics import Location, UnplannableBlock
 from ..interpret import gcodes as G
-from ..interpret.motion import ARC, CONTOUR, CORNER, LINE, RAPID, RUN, Step
+from ..interpret.motion import ARC, CONTOUR, LINE, RAPID, RUN, Step
 from ..syntax.blocks import Block
-from .edits import INTERFERENCE, NUMBERS, Entry, _as_it_is, _group, last_along, macro_word
+from .edits import ALONG, INTERFERENCE, JOIN, NUMBERS, Entry, _as_it_is, _group, last_along, macro_word
 from .segmenter import Cut
 
-JOIN = 1e-9  #: nominal points closer than this are the same point
-_ALONG = (RUN, CONTOUR, CORNER)  #: the roles of the moves that run along the program
 
 
 class Joining:
@@ -29,13 +27,13 @@ class Joining:
         if len(moves) == 1:
             last_move, last_edit = moves[0], previous.edits[0]
         else:
-            last_move = [m for m in moves if m.role in _ALONG][-1]
+            last_move = [m for m in moves if m.role in ALONG][-1]
             last_edit = previous.edits[moves.index(last_move)]
         moves = entry.step.moves
         if len(moves) == 1:
             first_move, first_edit = moves[0], entry.edits[0]
         else:
-            first_move = next(m for m in moves if m.role in _ALONG)
+            first_move = next(m for m in moves if m.role in ALONG)
             first_edit = entry.edits[moves.index(first_move)]
         connected = (
             None not in (last_move.x1, last_move.z1, first_move.x0, first_move.z0)
@@ -77,6 +75,20 @@ class Joining:
             last_edit.lead_out = self._connector(last_edit.end, nominal, previous.step)
         elif self._end_would_move(entry, last_edit.end, nominal):
             self._retarget(entry, start=last_edit.end)
+
+    def _from_nominal_start(self, entry: Entry) -> None:
+        """A motion step with no motion step before it to join to (the program's first, the first
+        after a block that names where the tool stands or that calls or returns) starts where the
+        program as written has the tool: the nominal start of its first move along the program. A
+        corrected start is met from there by a connecting G01, as after a move left as it was."""
+        moves = entry.step.moves
+        first = next((index for index, move in enumerate(moves) if move.role in ALONG), None)
+        if first is None:
+            return
+        move, edit = moves[first], entry.edits[first]
+        if edit is None or move.role == CONTOUR or None in (move.x0, move.z0):
+            return
+        edit.lead_in = self._connector((move.x0, move.z0), edit.start, entry.step)
 
     def _back_to_nominal(self, previous: Entry, before: Step | None = None) -> None:
         """The tool goes back to the nominal end of ``previous`` before a block that names the

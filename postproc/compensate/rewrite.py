@@ -47,14 +47,14 @@ from ..machine.resolution import Grid
 from . import monotone
 from .compensator import Piece
 from .emitter import Writer
-from .correcting import _ALONG, Correcting, STEPS, _travel, _turns, pieces, sample_lines, travel_after
-from .edits import _INCREMENTAL_OF, KEEP, MACRO_VALUES, NAMED, NUMBERS, REFUSE, Edit, Entry, call_word, macro_word
+from .correcting import Correcting, STEPS, _travel, _turns, pieces, sample_lines, travel_after
+from .edits import _INCREMENTAL_OF, ALONG, KEEP, MACRO_VALUES, NAMED, NUMBERS, REFUSE, Edit, Entry, call_word, macro_word
 from .joining import Joining
 from .one_way import OneWayRule, _OneWay
 from .planning import Planning
 from .request import Request
 from .segmenter import Limits
-from .self_check import SelfCheck
+from .self_check import AT_NOMINAL, SelfCheck
 from .writing import Writing
 
 __all__ = ["BATCH", "Corrector", "Edit", "Entry", "KEEP", "MACRO_VALUES", "NAMED", "NUMBERS", "Piece", "REFUSE",
@@ -116,6 +116,9 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
         self._settled: Entry | None = None  # the last motion step, written, ending at its nominal end
         self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
         self._checker: Interpreter | None = None  # reads replacements back (the self-check)
+        #: where the blocks written so far leave the tool, for the self-check: the last motion step's last move
+        #: and the end of its last cut as written (None: as programmed), AT_NOMINAL, or None (not known)
+        self._tool: tuple[Move, tuple[float, float] | None] | str | None = AT_NOMINAL
         self._grids: dict[bool, Grid] = {}  # by inch
         self._writers: dict[tuple[bool, bool, str], Writer] = {}  # by inch, absolute and axes
         self._allowances: dict[bool, tuple[float, float]] = {}  # for the last check, by inch
@@ -128,6 +131,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
 
     def run(self) -> Iterator[str]:
         self._window, self._previous, self._pending, self._settled = [], None, None, None
+        self._tool = AT_NOMINAL
         self.mode_now = self.original_mode = self.known_mode = None
         others = bool(self._others)
         one_way = monotone.ONE_WAY_CYCLES
@@ -206,6 +210,8 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
             self._join(self._previous, entry)
         elif self._settled is not None:
             self._join(self._settled, entry)
+        else:
+            self._from_nominal_start(entry)
         window, self._window, self._previous, self._settled = self._window, [entry], entry, None
         return window
 
@@ -248,7 +254,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
             for step in steps:
                 entry = Entry(step)
                 moves = step.moves  # Entry.motion, as the cached property would find it, without its lock
-                entry.__dict__["motion"] = (moves[0].role in _ALONG or any(move.role in _ALONG for move in moves)
+                entry.__dict__["motion"] = (moves[0].role in ALONG or any(move.role in ALONG for move in moves)
                                             if moves else False)
                 batch.append(entry)
                 if len(batch) == BATCH:

@@ -14,12 +14,17 @@ from dataclasses import replace
 from ..diagnostics import PostprocError, Reporter, SafetyError
 from ..geometry import segment_of
 from ..interpret.interpreter import Interpreter
-from ..interpret.motion import ARC, LINE, RAPID
+from ..interpret.motion import ARC, CONTOUR, LINE, RAPID, Step
 from ..syntax.fastpath import CanonicalLine, canonical_line
 from ..syntax.reader import read_blocks
-from .edits import Entry, _cut_of, _where
+from .edits import ALONG, JOIN, Entry, _cut_of, _where, call_word
 from .farthest import farthest, within
 from .segmenter import Cut
+
+
+#: Where the tool stands when the program as written has it there: at the start of the program, after a
+#: block that names the position (G50) or calls or returns (a corrected move before it goes back first)
+AT_NOMINAL = "at nominal"
 
 
 class SelfCheck:
@@ -35,6 +40,12 @@ class SelfCheck:
         """
         step = entry.step
         first = cuts[0]
+        stands = self._where_the_tool_stands(step)
+        if stands is not None and max(abs(first.x0 - stands[0]), abs(first.z0 - stands[1])) > 1e-9:
+            raise SafetyError(
+                f"self-check: the replacement starts at x {first.x0:.4f} z {first.z0:.4f} (a radius, and z), and the "
+                f"blocks before it leave the tool at x {stands[0]:.4f} z {stands[1]:.4f}; no program was written (a "
+                f"fault of the planner: please report it with the program)", _where(self.file, step))
         checker = self._checker
         if checker is None:
             checker = self._checker = Interpreter(replace(self.profile, name="self-check"), Reporter(),
@@ -68,6 +79,35 @@ class SelfCheck:
                     raise SafetyError(
                         f"self-check: the replacement runs {planned.deviation * 1000:.2f} um from the intended path "
                         f"(tolerance {tolerance * 1000:.2f} um)", _where(self.file, step))
+
+    def _where_the_tool_stands(self, step: Step) -> tuple[float, float] | None:
+        """Where the blocks written before the step leave the tool, when that is known and the
+        step's first move starts from there: the replacement's first cut must start at that
+        point, so that the joins the rewriter made are read back too, not only each block's own
+        moves. None where the control, not the program, decides (a cycle's contour, a move that
+        does not start where the last one ended: a jump, the end of a cycle) or nothing is known."""
+        moves = step.moves
+        if not moves or moves[0].role not in ALONG or None in (moves[0].x0, moves[0].z0):
+            return None
+        first = moves[0]
+        tool = self._tool
+        if tool == AT_NOMINAL:
+            return (first.x0, first.z0)
+        if tool is None or first.role == CONTOUR:
+            return None
+        last, end = tool
+        if (last.role == CONTOUR or None in (last.x1, last.z1)
+                or abs(last.x1 - first.x0) > JOIN or abs(last.z1 - first.z0) > JOIN):
+            return None
+        return end if end is not None else (first.x0, first.z0)
+
+    def _written(self, step: Step, cuts: list[Cut] | None) -> None:
+        """Follow where the tool stands after the step as written (``cuts``: its replacement, or
+        None for the block as it was)."""
+        if step.names_position or call_word(step.block) is not None:
+            self._tool = AT_NOMINAL  # a corrected move before it went back to its nominal end
+        elif step.moves:
+            self._tool = (step.moves[-1], (cuts[-1].x1, cuts[-1].z1) if cuts else None)
 
     def _near_nominal(self, entry: Entry, cuts: list[Cut]) -> None:
         """No written cut may run further from the moves it replaces than the largest correction

@@ -67,6 +67,7 @@ class Writing:
             self._follow_contour(step, None)
             if step.contour_end:
                 self.mode_now = None  # the cycle gives back the mode it found, whatever its contour ended in
+            self._written(step, None)
             return [block.raw]
         if self.request.macro_values == NUMBERS:
             word = macro_word(block)
@@ -90,6 +91,7 @@ class Writing:
             self._one_place_for_the_label(step, label_last)
         self._self_check(entry, lines, cuts)
         self._near_nominal(entry, cuts)
+        self._written(step, cuts)
         self._follow_contour(step, cuts)
         self.mode_now = None if step.contour_end else mode  # a cycle gives back the mode it found
         self.replaced += 1
@@ -167,9 +169,9 @@ class Writing:
     def _cuts(self, entry: Entry) -> list[Cut]:
         """The cuts that replace a step, each plan's share recorded for the self-check."""
         step = entry.step
-        if entry.retarget is not None:
+        if entry.retarget is not None:  # a new start is written only when the block's end depends on it
             move = step.moves[0]
-            a = self._snap(step, entry.retarget[0] or (move.x0, move.z0))
+            a = self._snap(step, entry.retarget[0] or self._where_the_tool_stands(step) or (move.x0, move.z0))
             b = self._snap(step, entry.retarget[1] or (move.x1, move.z1))
             return [Cut(a[0], a[1], b[0], b[1], rapid=move.kind == RAPID)]
         cuts: list[Cut] = []

@@ -736,3 +736,23 @@ def test_after_a_cycle_the_mode_it_gave_back_is_in_force_whatever_its_contour_en
     shift = lambda piece: np.tile((0.003, -0.002), (len(piece.points), 1))
     out, _ = rewrite(text, shift, mode="line", tolerance=0.001)
     assert out.splitlines()[-1] == "X200. Z150."
+
+
+@pytest.mark.parametrize("before", ["G50 X20. Z5.", "G00 X0. Z50.\nG50 X20. Z5.", "G00 X20. Z5.\nG01 Z0.\nX40. Z-10.\nG50 X20. Z5.",
+                                    "G00 X20. Z5." + "\n(C)" * 12])
+def test_a_move_with_nothing_before_it_to_join_starts_from_its_nominal_start(before, monkeypatch):
+    """The first move of the program, or the first after a block that names where the tool stands
+    (G50), or after a long stretch without motion, has no corrected move before it to meet: the tool stands at the move's nominal start, and a connecting G01 takes it to the
+    corrected start. Without it the first piece ran from the nominal start, off its plan by the
+    correction there."""
+    monkeypatch.setattr(rewrite_module, "WINDOW", 8)
+    text = f"G18 G21 G99 F0.1\n{before}\nG01 X20. Z-20.\nX30. Z-30.\nG00 X100.\n"
+    shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
+    out, rewriter = rewrite(text, shift, tolerance=0.001)
+    lines = out.splitlines()
+    after = lines[len(lines) - lines[::-1].index(before.splitlines()[-1]):]
+    assert after[:2] == ["G01 X20.006 Z4.998", "X20.006 Z-20.002"], out
+    read = [m for m in moves(out) if m.kind == LINE]
+    joined = [m for m in read if (m.x0, m.z0) == pytest.approx((10.0, 5.0))]
+    assert joined and (joined[-1].x1, joined[-1].z1) == pytest.approx((10.003, 4.998))
+    assert rewriter.worst <= 0.001

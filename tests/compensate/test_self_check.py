@@ -118,3 +118,36 @@ def test_a_replacement_from_an_unknown_position_exits_4_with_no_output(run, tmp_
     assert f"{program}:7: error: self-check: block 2 of the " in result.stderr
     assert "unknown position" in result.stderr
     assert not output.exists()
+
+
+def _shifted_lines(text: str, **options) -> str:
+    """``text`` rewritten with every line moved by (3, -2) um (rapids left alone)."""
+    shift = lambda piece: None if piece.move.kind != "line" else np.tile((0.003, -0.002), (len(piece.points), 1))
+    with Source.from_text(text, "t.nc") as source:
+        rewriter = Rewriter(interpret_source(source), lambda pieces: [shift(piece) for piece in pieces], DEFAULT,
+                            Request(tolerance=0.001, **options), Reporter(), "t.nc", labels=source.labels)
+        return "".join(rewriter.run())
+
+
+def test_a_replacement_that_does_not_start_where_the_tool_stands_is_refused(monkeypatch):
+    """The read-back starts where the blocks written before leave the tool, so a join the planner
+    failed to make is found as surely as a wrong block: here the move after G50 with its connecting
+    G01 taken away (as it was missing before), a planner fault refused with no program."""
+    text = "G18 G21 G99 F0.1\nG50 X20. Z5.\nG01 X20. Z-20.\nG00 X100.\n"
+    assert _shifted_lines(text).splitlines()[2] == "G01 X20.006 Z4.998"
+    monkeypatch.setattr(Rewriter, "_from_nominal_start", lambda self, entry: None)
+    with pytest.raises(SafetyError) as caught:
+        _shifted_lines(text)
+    message = str(caught.value)
+    assert message.startswith("t.nc:3: error: self-check: the replacement starts at x 10.0030 z 4.9980 (a radius, and z)")
+    assert "leave the tool at x 10.0000 z 5.0000" in message and "fault of the planner" in message
+
+
+@pytest.mark.parametrize("move", ["G00 X40. Z-5.", "G01 X40. Z-5.", "G00 X40. Z-10.\nG00 X40. Z-5."])
+def test_a_block_moved_to_meet_the_next_starts_where_the_last_one_left_the_tool(move):
+    """A line whose end is moved to meet the corrected start of the next, and whose own end words
+    are all absolute, is written with its new end only: it runs from wherever the corrected block
+    before it left the tool, and that is where its read-back and its checks start."""
+    text = f"G18 G21 G99 F0.1\nG00 X40. Z5.\nG01 Z-10.\n{move}\nG01 X30. Z-20.\nG00 X100.\n"
+    out = _shifted_lines(text)
+    assert "X40.006 Z-10.002" in out.splitlines()  # the corrected end the next block starts from
