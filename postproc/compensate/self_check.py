@@ -41,7 +41,7 @@ class SelfCheck:
         step = entry.step
         first = cuts[0]
         stands = self._where_the_tool_stands(step)
-        if stands is not None and max(abs(first.x0 - stands[0]), abs(first.z0 - stands[1])) > 1e-9:
+        if stands is not None and self._off_the_grid_point(step, (first.x0, first.z0), stands):
             raise SafetyError(
                 f"self-check: the replacement starts at x {first.x0:.4f} z {first.z0:.4f} (a radius, and z), and the "
                 f"blocks before it leave the tool at x {stands[0]:.4f} z {stands[1]:.4f}; no program was written (a "
@@ -100,6 +100,13 @@ class SelfCheck:
                 or abs(last.x1 - first.x0) > JOIN or abs(last.z1 - first.z0) > JOIN):
             return None
         return end if end is not None else (first.x0, first.z0)
+
+    def _off_the_grid_point(self, step: Step, point: tuple[float, float], stands: tuple[float, float]) -> bool:
+        """Whether a planned start is not where the tool stands: more than half an output step off
+        in an axis (a program's own coordinates may hold more decimals than its output is written
+        with: the plan starts at the nearest point of the grid)."""
+        x_step, z_step = self._steps(step)
+        return abs(point[0] - stands[0]) > x_step / 2 + 1e-9 or abs(point[1] - stands[1]) > z_step / 2 + 1e-9
 
     def _written(self, step: Step, cuts: list[Cut] | None) -> None:
         """Follow where the tool stands after the step as written (``cuts``: its replacement, or

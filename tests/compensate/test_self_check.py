@@ -151,3 +151,11 @@ def test_a_block_moved_to_meet_the_next_starts_where_the_last_one_left_the_tool(
     text = f"G18 G21 G99 F0.1\nG00 X40. Z5.\nG01 Z-10.\n{move}\nG01 X30. Z-20.\nG00 X100.\n"
     out = _shifted_lines(text)
     assert "X40.006 Z-10.002" in out.splitlines()  # the corrected end the next block starts from
+
+
+@pytest.mark.parametrize("start", ["G50 X20.0005 Z5.0004", "G00 X20.0005 Z5.0004"])
+def test_a_start_off_the_output_grid_is_where_the_tool_stands(start):
+    """A program may hold more decimals than its output is written with: the plan starts at the
+    grid point nearest the tool, and the self-check takes that for where the tool stands."""
+    text = f"G18 G21 G99 F0.1\n{start}\nG01 X20.0005 Z-20.0003\nG00 X100.\n"
+    assert _shifted_lines(text).splitlines()[2] == "G01 X20.006 Z4.998"
