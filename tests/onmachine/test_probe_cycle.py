@@ -482,9 +482,9 @@ def test_malformed_printouts_are_refused_at_their_line(run, tmp_path, lines, lin
 
 
 @pytest.mark.parametrize("data, message", [
-    (b"", "the printout is empty"),
-    ((HEADER + "\n" + POINT1 + "\n").encode(), "the printout ends without END: the probing program did not finish "
-                                                "(1 of 2 points printed)"),
+    (b"", ": error: the printout is empty"),
+    ((HEADER + "\n" + POINT1 + "\n").encode(), ":2: error: the printout ends here without END: the probing "
+                                                "program did not finish (1 of 2 points printed)"),
     (b"\xd0\xcf\xd3\xd4", None),
 ])
 def test_incomplete_or_garbled_printouts(run, tmp_path, data, message):
@@ -495,7 +495,7 @@ def test_incomplete_or_garbled_printouts(run, tmp_path, data, message):
         assert result.stderr.startswith(f"{printout}:1: error: not an ASCII printout")
         assert "even parity" in result.stderr
     else:
-        assert result.stderr == f"{printout}: error: {message}\n"
+        assert result.stderr == f"{printout}{message}\n"
 
 
 def test_import_from_stdin(run):
