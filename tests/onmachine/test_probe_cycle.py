@@ -245,6 +245,8 @@ def test_gcode_system_b_and_soft_limits(run, tmp_path):
     (["--tool", "T9X"], EXIT_BAD_INPUT, "--tool 9X: expected the digits of a T code"),
     (["--program-number", "10000"], EXIT_BAD_INPUT, "a FANUC program number is 1 to 9999"),
     (["--inset", "50"], EXIT_BAD_INPUT, "--inset 50 leaves nothing of the 89.771 mm profile"),
+    (["--stylus-radius", "3000"], EXIT_BAD_INPUT, "--stylus-radius 3000: a stylus radius of 3000 mm is larger than any "
+                                                  "probe's (balls of 0.3 to 25 mm): micrometres written as millimetres?"),
 ])
 def test_bad_options(run, options, code, message):
     result = run("probe-program", HEMISHELL, "--from-line", "10", "--to-line", "10", *options)
