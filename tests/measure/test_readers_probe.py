@@ -307,3 +307,20 @@ def test_a_repeatability_a_probe_may_have_is_read(tmp_path_factory, repeatabilit
     header = [line if not line.startswith("# repeatability_mm") else f"# repeatability_mm = {repeatability}"
               for line in HEADER]
     assert read_probe(_written(tmp_path_factory, ROWS, header)).repeatability == float(repeatability)
+
+
+@pytest.mark.parametrize("command", ["omp-feedback", "tool-offset", "inspect"])
+def test_a_file_in_another_unit_is_named_before_its_datum_seems_to_move(tmp_path_factory, command):
+    """A printout headed G 20 whose numbers are millimetres, imported, has every length 25.4
+    times too large, its datum's 1 um drift too: the datum check refused it as the machine
+    moving (exit 4, and --force would take it). The unit is named first (exit 3)."""
+    values = {line[2:].partition(" = ")[0]: float(line.partition(" = ")[2]) for line in HEADER
+              if line.startswith("# datum_")}
+    header = _header(HEADER, **{key: f"{value * 25.4:.7f}" for key, value in values.items()})
+    path = _written(tmp_path_factory, _scaled(ROWS, 25.4, 25.4), header)
+    result = _inspect(path) if command == "inspect" else _compensate(command, path)
+    assert "millimetres read as inches?" in _one_error(result, path)
+    if command != "inspect":  # without a program to compare with, the datum's refusal stands
+        fitted = CliRunner().invoke(main, ["fit", "--plugin", command, "--probe", path], catch_exceptions=False)
+        assert fitted.exit_code == 4 and fitted.stdout == ""
+        assert f"{path}: error: the machine moved during the inspection" in fitted.stderr
