@@ -32,6 +32,10 @@ from .screening import Screening, screen
 MAX_APPROACH_ANGLE = 80.0  #: degrees between an approach and the surface normal it may touch
 FORCE_FLAG = "--force"  #: the command-line override of a failed datum check
 _TIE = 1e-9  #: mm; segments this close to equally near are told apart by the approach
+#: touches read otherwise (check_on_profile) fit a profile only if their deviations then spread
+#: over at most this share of the touches' extent (a part's form: 0.1 mm over 10 mm), or FORM_FLOOR_MM
+FORM_SHARE = 0.01
+FORM_FLOOR_MM = 0.01
 
 
 def touched_points(touches: Touches, calibration: CalibrationModel | None = None,
@@ -111,7 +115,11 @@ def check_on_profile(deviations: Deviations, touches: Touches, touched: np.ndarr
             again = profile_deviations(centres + stylus * touches.approach + pretravel, touches.approach, profile)
         except MeasurementError:
             return False
-        return bool(np.all(np.abs(again.deviation) <= limit))
+        # a reading that shrinks the touches (um, inches) must not merely collapse them onto a bit
+        # of profile near the origin: read so, they keep a part's form, not a heap's
+        extent = float(np.hypot(*np.ptp(centres, axis=0)))
+        return bool(np.all(np.abs(again.deviation) <= limit)
+                    and np.ptp(again.deviation) <= max(FORM_SHARE * extent, FORM_FLOOR_MM))
 
     cause = likely_cause(touches, fits, "a file of another part, another program or another work offset?")
     if unexplained or cause in {why for _, why in MISREADINGS}:

@@ -15,7 +15,7 @@ from hypothesis import given, settings, strategies as st
 from postproc.cli.main import main
 from postproc.diagnostics import MeasurementError
 from postproc.measure.readers.probe import read_calibration, read_probe
-from support import SAMPLES
+from support import CORPUS, SAMPLES
 
 HEMISHELL = str(SAMPLES / "programs" / "hemishell.nc")
 PROBE = SAMPLES / "probe" / "hemishell-pass1.csv"
@@ -324,3 +324,15 @@ def test_a_file_in_another_unit_is_named_before_its_datum_seems_to_move(tmp_path
         fitted = CliRunner().invoke(main, ["fit", "--plugin", command, "--probe", path], catch_exceptions=False)
         assert fitted.exit_code == 4 and fitted.stdout == ""
         assert f"{path}: error: the machine moved during the inspection" in fitted.stderr
+
+
+@pytest.mark.parametrize("plugin", ["omp-feedback", "tool-offset"])
+def test_a_file_of_another_part_is_not_a_unit_because_shrunk_it_heaps_on_the_profile(plugin):
+    """The hemishell's touches divided by 25.4 heap within 2.4 mm of the origin, where a small
+    part's profile runs: they lay within 1 mm of it, and the file was called a printout in mm
+    headed G 20. Read otherwise, touches must keep a part's form to be called misread."""
+    program = str(CORPUS / "fanuc" / "corbinpro_o4001.nc")
+    result = CliRunner().invoke(main, ["compensate", program, "--plugin", plugin, "--probe", str(PROBE)],
+                                catch_exceptions=False)
+    assert _one_error(result, str(PROBE)).endswith(
+        "beyond the 1 mm any correction reaches: a file of another part, another program or another work offset?")
