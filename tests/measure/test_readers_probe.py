@@ -336,3 +336,30 @@ def test_a_file_of_another_part_is_not_a_unit_because_shrunk_it_heaps_on_the_pro
                                 catch_exceptions=False)
     assert _one_error(result, str(PROBE)).endswith(
         "beyond the 1 mm any correction reaches: a file of another part, another program or another work offset?")
+
+
+@pytest.mark.parametrize("command", ["omp-feedback", "inspect"])
+def test_a_datum_in_um_that_drifts_within_a_correction_is_no_move_force_or_not(tmp_path_factory, command):
+    """Both readings in um, 0.5 um apart: a drift of 0.5 mm (exit 4), which --force took, of a
+    datum 5 m from every touch. Read in um they are stable and among the touches: refused (exit 3)."""
+    header = _header(HEADER, datum_before_z_mm="5006.0", datum_after_z_mm="5006.5")
+    path = _written(tmp_path_factory, ROWS, header)
+    for force in ((), ("--force",)):
+        result = _inspect(path, *force) if command == "inspect" else _compensate(command, path, *force)
+        assert _one_error(result, path) == (
+            f"{path}:{_line(header, 'datum_before_z_mm')}: error: datum_before_z_mm = 5006 and datum_after_z_mm = 5006.5 "
+            "differ by 0.5000 mm, more than repeatability_mm = 0.003, the datum 4946 mm from every touch, which no "
+            "forced run can use: both readings micrometres written as millimetres? (0.5 um is 0.0005 mm); correct the "
+            "file, or probe again")
+
+
+@settings(max_examples=40, deadline=None)
+@given(datum=st.floats(-900.0, 900.0), drift=st.floats(0.0031, 1.0), sign=st.sampled_from([-1.0, 1.0]),
+       axis=st.sampled_from("xz"))
+def test_a_datum_that_really_moved_is_read_for_the_stability_check(tmp_path_factory, datum, drift, sign, axis):
+    """A datum by the profile (within a metre of its touches) that moved by up to a correction is
+    read as it is: the stability check refuses it (exit 4), and --force may use it."""
+    header = _header(HEADER, **{f"datum_before_{axis}_mm": f"{datum:.7f}",
+                                f"datum_after_{axis}_mm": f"{datum + sign * drift:.7f}"})
+    probe = read_probe(_written(tmp_path_factory, ROWS, header))
+    assert probe.datum_after[axis] - probe.datum_before[axis] == pytest.approx(sign * drift, abs=1e-6)

@@ -30,6 +30,8 @@ UNIT_TOLERANCE = 0.001
 #: mm; a probe repeating worse than the largest correction cannot measure one (and as the floor of the
 #: outlier screening, a repeatability this large would call no touch an outlier, not even the nub)
 MAX_REPEATABILITY = 0.1
+#: mm; no datum vouching for a profile's touches lies further from all of them
+DATUM_REACH_MM = 1000.0
 #: A touch-trigger probe triggers after contact, so the touched artifact reads smaller than it is
 #: by the pretravel: some micrometres, a few tens with a long stylus (mm)
 MAX_PRETRAVEL_MM = 0.05
@@ -138,12 +140,10 @@ def _stylus(table: Table) -> float:
 def _datum(table: Table, repeatability: float | None, centres: np.ndarray) -> tuple[dict[str, float], dict[str, float]]:
     """The datum readings before and after the profile, axis -> mm, in pairs.
 
-    A pair that differs by more than any correction (:data:`MAX_CORRECTION`) is no drift of the
-    machine a forced run could use (``--force`` covers a datum that moved by more than the
-    repeatability), but a value misread: refused at its line with the misreading that makes the
-    pair agree (one in um or inches, an x as a diameter, or both in um or inches when so read they
-    drift by no more than the repeatability and lie nearer the touches), else as two different
-    datums."""
+    A pair that is no drift of one datum (:func:`_misread_datum`: readings more than any
+    correction apart, or a datum metres from every touch that drifts) is no move of the machine
+    a forced run could use (``--force`` covers a datum that moved by more than the
+    repeatability), but a value misread: refused at its line, naming how."""
     keys = {(phase, axis): f"datum_{phase}_{axis}_mm" for phase in ("before", "after") for axis in "xz"}
     read = {place: table.coordinate(key) for place, key in keys.items()}
     given = {place: value for place, value in read.items() if value is not None}
@@ -152,37 +152,54 @@ def _datum(table: Table, repeatability: float | None, centres: np.ndarray) -> tu
         if (other, axis) not in given:
             raise table.error(f"{keys[phase, axis]} without {keys[other, axis]}: the stability check needs the same "
                               "datum touched before and after the profile", table.header[keys[phase, axis]][1])
+    stable = repeatability if repeatability is not None else MAX_REPEATABILITY
     for axis in "xz":
-        if ("before", axis) not in given:
-            continue
-        before, after = given["before", axis], given["after", axis]
-        if abs(after - before) <= MAX_CORRECTION:
-            continue
-        readings = WRITTEN + DIAMETERS if axis == "x" else WRITTEN
-        # the one reading that, read otherwise, agrees best with the other (within a correction)
+        if ("before", axis) in given:
+            found = _misread_datum(given["before", axis], given["after", axis], stable, centres[:, "xz".index(axis)],
+                                   WRITTEN + DIAMETERS if axis == "x" else WRITTEN)
+            if found:
+                phase, cause, how = found
+                before, after = given["before", axis], given["after", axis]
+                raise table.error(f"datum_before_{axis}_mm = {before:g} and datum_after_{axis}_mm = {after:g} differ "
+                                  f"by {abs(after - before):.4f} mm, {how}, which no forced run can use: {cause}; "
+                                  "correct the file, or probe again", table.header[keys[phase, axis]][1])
+    return ({axis: value for (phase, axis), value in given.items() if phase == "before"},
+            {axis: value for (phase, axis), value in given.items() if phase == "after"})
+
+
+def _misread_datum(before: float, after: float, stable: float, touched: np.ndarray,
+                   readings) -> tuple[str, str, str] | None:
+    """(the reading misread, the likely cause, what gives it away) of a datum pair that is no
+    drift of one datum, or None. Readings more than a correction apart: the one that, read
+    otherwise, agrees best with the other; else both in um or inches when so read they drift by
+    no more than ``stable`` and lie nearer the ``touched`` stretch of the axis; else two datums.
+    Readings that drift by more than ``stable`` only, but lie further than DATUM_REACH_MM from
+    every touch, are both in um or inches when so read they are stable and among the touches."""
+    drift = abs(after - before)
+
+    def off(value: float) -> float:  # from the stretch of that axis the touches cover
+        return max(float(touched.min()) - value, value - float(touched.max()), 0.0)
+
+    def both(near: float) -> str | None:
+        cause = next((explain(after - before) for factor, explain in WRITTEN
+                      if drift * factor <= stable and off(before * factor) < near), None)
+        return cause and f"both readings {cause}"
+
+    if drift > MAX_CORRECTION:
+        how = f"more than any correction ({MAX_CORRECTION:g} mm)"
         agree = sorted((abs(value * factor - fixed), phase, explain(value))
                        for phase, fixed, value in (("after", before, after), ("before", after, before))
                        for factor, explain in readings if abs(value * factor - fixed) <= MAX_CORRECTION)
         if agree:
-            _, phase, cause = agree[0]
-        else:
-            stable = repeatability if repeatability is not None else MAX_REPEATABILITY
-            touched = centres[:, "xz".index(axis)]
-
-            def off(value: float) -> float:  # from the stretch of that axis the touches cover
-                return max(float(touched.min()) - value, value - float(touched.max()), 0.0)
-
-            phase, cause = "before", next((explain(after - before) for factor, explain in WRITTEN
-                                           if abs((after - before) * factor) <= stable
-                                           and off(before * factor) < off(before)), None)
-            cause = f"both readings {cause}" if cause else ("not one datum touched twice (another face or diameter, "
-                                                            "or a digit wrong)")
-        raise table.error(f"datum_before_{axis}_mm = {before:g} and datum_after_{axis}_mm = {after:g} differ by "
-                          f"{abs(after - before):.4f} mm, more than any correction ({MAX_CORRECTION:g} mm), which no "
-                          f"forced run can use: {cause}; correct the file, or probe again",
-                          table.header[keys[phase, axis]][1])
-    return ({axis: value for (phase, axis), value in given.items() if phase == "before"},
-            {axis: value for (phase, axis), value in given.items() if phase == "after"})
+            return agree[0][1], agree[0][2], how
+        return "before", both(off(before)) or "not one datum touched twice (another face or diameter, or a digit " \
+                                               "wrong)", how
+    if drift > stable and off(before) > DATUM_REACH_MM:
+        cause = both(DATUM_REACH_MM)
+        if cause:
+            return "before", cause, (f"more than repeatability_mm = {stable:g}, the datum {off(before):.0f} mm from "
+                                     "every touch")
+    return None
 
 
 def read_probe(path: str) -> ProbeFile:
