@@ -26,7 +26,7 @@ import click
 import numpy as np
 
 from ..diagnostics import Location, MeasurementError, Reporter, UsageError
-from ..measure.readers.ballbar import MAGIC, REPEATED, make_trace, raw_samples, repeated_angle
+from ..measure.readers.ballbar import MAGIC, REPEATED, make_trace, open_ends, raw_samples, repeated_angle
 from ..measure.readers.csvfile import read_text
 from ..files.output import STDOUT, write_atomically
 from .common import FINITE, examples, guard
@@ -118,6 +118,11 @@ def command(file, radius, direction, center_x, center_z, feed, start_angle, capt
         header["feed_mm_min"] = f"{feed:.10g}"
     if raw:
         capture = 360.0 if capture_arc is None else capture_arc
+        problem = open_ends(deviations) if capture == 360.0 else None
+        if problem:
+            line, _, cols = table.rows[-1]
+            raise MeasurementError(f"{problem}; give the arc they span with --capture-arc",
+                                   Location(file, line, cols[picked[-1]], table.lines[line - 1]))
         header |= {"start_angle_deg": f"{start_angle:.10g}", "capture_arc_deg": f"{capture:.10g}"}
         angles, samples = raw_samples(deviations, start_angle, capture, direction == "cw", 6, reporter, file)
         rows = ["deviation_mm"] + [f"{value:.10g}" for value in deviations]

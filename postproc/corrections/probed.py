@@ -20,7 +20,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from ..compensate.compensator import Compensator, Measurements
-from ..diagnostics import Location, MeasurementError
+from ..diagnostics import Location, MeasurementError, SafetyError
 from ..measure.features import Feature, features
 from ..geometry import Profile, segment_of
 from ..measure.readers.probe import ProbeFile
@@ -134,11 +134,14 @@ class ProbeCompensator(Compensator):
 
     Subclasses survey the program with :meth:`probed_chains`. The datum is checked when the
     file is read: a datum that moved by more than ``repeatability_mm`` refuses the run
-    (exit 4; ``--force`` uses the points anyway)."""
+    (exit 4; ``--force`` uses the points anyway), once the touches are found on the program's
+    profile (a file in another unit is named as such first) or when the model is saved."""
 
     takes = ("probe", "calibration")
     needs = ("probe",)
     needs_survey = True
+    #: the datum check's refusal (the datum moved), held until the touches meet the program
+    unstable: SafetyError | None = None
 
     def fit(self, measurements: Measurements) -> None:
         probes = measurements.probe
@@ -146,15 +149,25 @@ class ProbeCompensator(Compensator):
             raise MeasurementError(f"{self.name} takes one probe file; {len(probes)} given", Location(probes[1].path))
         probe = self.probe = probes[0]
         reporter = self.context.reporter
-        self.notes = check_datum(probe, self.context.force, reporter)
+        try:
+            self.notes = check_datum(probe, self.context.force, reporter)
+        except SafetyError as refusal:
+            # A file in another unit (a printout headed G 20 whose numbers are mm) makes its datum
+            # seem to move: that is named first, where the touches meet the program
+            # (probed_chains); without a program (a model to save) the refusal stands at once.
+            self.unstable, self.notes = refusal, []
         calibration = fit_calibration(measurements.calibration) if measurements.calibration else None
         if calibration is not None:
             self.notes += calibration.report()
-        self.touched, _ = touched_points(probe, calibration, reporter)
+        self.touched, _ = touched_points(probe, calibration, None if self.unstable else reporter)
         self.probed: list[ProbedChain] = []
 
     def model(self) -> dict[str, Any]:
-        """The touched points (calibration applied, datum checked): all a program needs of the files."""
+        """The touched points (calibration applied, datum checked): all a program needs of the files.
+
+        :raises SafetyError: the datum moved (and not ``--force``)."""
+        if self.unstable is not None:
+            raise self.unstable
         probe = self.probe
         return {"probe": probe.path, "stylus_radius_mm": probe.stylus_radius, "repeatability_mm": probe.repeatability,
                 "rows": list(probe.lines), "touched_mm": self.touched.tolist(), "approach": probe.approach.tolist(),
@@ -180,6 +193,8 @@ class ProbeCompensator(Compensator):
         owner = np.repeat(np.arange(len(chains)), [len(chain.moves) for chain in chains])
         found = profile_deviations(points, probe.approach, combined, probe)
         check_on_profile(found, probe, points, combined, abs(self.settings.get("stock") or 0.0))
+        if self.unstable is not None:
+            raise self.unstable
         which = owner[found.nearest.index]
         result = []
         for number in np.unique(which):

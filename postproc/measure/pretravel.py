@@ -23,13 +23,13 @@ it can explain, such as a half with too few touches) is left out of the ranking.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
 
 from ..diagnostics import Location, MeasurementError
-from .readers.probe import CalibrationRun, Touches, outside_directions
+from .readers.probe import MAX_PRETRAVEL_MM, CalibrationRun, Touches, likely_cause, outside_directions
 
 POLE = 90.0  #: theta of a touch straight down, where the split candidates join
 DIRECTION_LIMIT = 5.0  #: degrees a probe direction may lie outside the calibrated ones
@@ -231,25 +231,37 @@ class CalibrationModel:
                    np.array(data["calibrated_theta_deg"], dtype=float), candidates)
 
 
-#: A touch-trigger probe triggers after contact, so the touched artifact reads smaller than it is
-#: by the pretravel: some micrometres, a few tens with a long stylus. Touches that read it larger
-#: (beyond the noise), or smaller by more than this, come from a wrong radius in the file.
-MAX_PRETRAVEL_MM = 0.05
+#: Touches that read the artifact larger (beyond the noise), or smaller by more than
+#: MAX_PRETRAVEL_MM (:mod:`postproc.measure.readers.probe`), come from a wrong radius in the file.
 LARGER_MM = 0.005  #: how much larger the artifact may read, at the median touch: noise
 
 
-def _physical(k: np.ndarray, source: str) -> None:
+def _physical(k: np.ndarray, source: str, runs: Sequence[CalibrationRun] = ()) -> None:
     """Refuse touches no probe gives: the artifact read larger than it is (a trigger before
-    contact), or smaller by more than any pretravel."""
+    contact), or smaller by more than any pretravel; naming the misreading of a run's file
+    (:data:`~postproc.measure.readers.probe.MISREADINGS`: a stylus radius given as the diameter
+    or in inches...) under which its touches read as a probe's, where one does."""
+    if not _unphysical(k):
+        return
     median, least = float(np.median(k)), float(k.min())
-    if median > LARGER_MM or least < -MAX_PRETRAVEL_MM:
-        found = (f"the touches read the artifact {median * 1000:+.1f} um larger than it is at the median touch (a "
-                 "probe triggers after contact: it reads it smaller)" if median > LARGER_MM else
-                 f"a touch reads the artifact {-least * 1000:.1f} um smaller than it is, more than the "
-                 f"{MAX_PRETRAVEL_MM * 1000:g} um of pretravel a touch-trigger probe has")
-        raise MeasurementError(f"{found}: artifact_radius_mm or stylus_radius_mm in the file is most likely not the "
-                               "one measured (the artifact's certificate, the stylus as fitted): correct it, or "
-                               "calibrate again", Location(source))
+    found = (f"the touches read the artifact {median * 1000:+.1f} um larger than it is at the median touch (a "
+             "probe triggers after contact: it reads it smaller)" if median > LARGER_MM else
+             f"a touch reads the artifact {-least * 1000:.1f} um smaller than it is, more than the "
+             f"{MAX_PRETRAVEL_MM * 1000:g} um of pretravel a touch-trigger probe has")
+    for run in runs:
+        def fits(centres: np.ndarray, stylus: float) -> bool:
+            return not _unphysical(replace(run, centres=centres, stylus_radius=stylus).factors())
+
+        cause = likely_cause(run, fits, "")
+        if cause:
+            raise MeasurementError(f"{found}: {cause}", Location(run.path))
+    raise MeasurementError(f"{found}: artifact_radius_mm or stylus_radius_mm in the file is most likely not the "
+                           "one measured (the artifact's certificate, the stylus as fitted): correct it, or "
+                           "calibrate again", Location(source))
+
+
+def _unphysical(k: np.ndarray) -> bool:
+    return bool(np.median(k) > LARGER_MM or k.min() < -MAX_PRETRAVEL_MM)
 
 
 def fit_calibration(runs: CalibrationRun | Sequence[CalibrationRun], model: str | None = None) -> CalibrationModel:
@@ -268,7 +280,7 @@ def fit_calibration(runs: CalibrationRun | Sequence[CalibrationRun], model: str 
     k = np.concatenate([run.factors() for run in runs])
     if len(k) < 3:
         raise MeasurementError(f"{len(k)} touches: a calibration needs at least 3", Location(source))
-    _physical(k, source)
+    _physical(k, source, runs)
     frame = Frame.around(theta)
     u = frame.unwrap(theta)
     scored = []

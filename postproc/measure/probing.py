@@ -25,13 +25,17 @@ from ..diagnostics import Location, MeasurementError, Reporter, SafetyError
 from .features import Feature, features, owners
 from ..geometry import Nearest, Profile, as_points
 from ..machine.bounds import MAX_CORRECTION
-from .readers.probe import ProbeFile, Touches, likely_cause
+from .readers.probe import MISREADINGS, ProbeFile, Touches, likely_cause
 from .pretravel import CalibrationModel
 from .screening import Screening, screen
 
 MAX_APPROACH_ANGLE = 80.0  #: degrees between an approach and the surface normal it may touch
 FORCE_FLAG = "--force"  #: the command-line override of a failed datum check
 _TIE = 1e-9  #: mm; segments this close to equally near are told apart by the approach
+#: touches read otherwise (check_on_profile) fit a profile only if their deviations then spread
+#: over at most this share of the touches' extent (a part's form: 0.1 mm over 10 mm), or FORM_FLOOR_MM
+FORM_SHARE = 0.01
+FORM_FLOOR_MM = 0.01
 
 
 def touched_points(touches: Touches, calibration: CalibrationModel | None = None,
@@ -89,30 +93,39 @@ class Deviations:
 
 
 def check_on_profile(deviations: Deviations, touches: Touches, touched: np.ndarray, profile: Profile,
-                     allowance: float) -> None:
+                     allowance: float, unexplained: bool = True) -> None:
     """Refuse touches that lie further from the nominal profile than any correction reaches
     (:data:`~postproc.machine.bounds.MAX_CORRECTION`) plus ``allowance`` (the stock an earlier pass
     left): the file does not describe this profile. One error at the furthest touch's row, with
     the likely cause (:func:`~postproc.measure.readers.probe.likely_cause`: micrometres written as
-    millimetres, x written as a diameter, another part or set-up), for compensating from such
-    points would move the tool by millimetres."""
+    millimetres, x written as a diameter, inches, the stylus's diameter or inches, another part or
+    set-up), for compensating from such points would move the tool by millimetres.
+
+    :param unexplained: refuse such touches when no misreading explains them too (an inspection
+        reports a part that far off as it is; a compensation cannot use it)."""
     limit = MAX_CORRECTION + allowance
     off = np.abs(deviations.deviation)
     worst = int(np.argmax(off))
     if not off[worst] > limit:
         return
-    reach = touched - touches.centres  # stylus radius and pretravel along each approach
+    pretravel = touched - touches.centres - touches.stylus_radius * touches.approach
 
-    def fits(centres: np.ndarray) -> bool:
+    def fits(centres: np.ndarray, stylus: float) -> bool:
         try:
-            again = profile_deviations(centres + reach, touches.approach, profile)
+            again = profile_deviations(centres + stylus * touches.approach + pretravel, touches.approach, profile)
         except MeasurementError:
             return False
-        return bool(np.all(np.abs(again.deviation) <= limit))
+        # a reading that shrinks the touches (um, inches) must not merely collapse them onto a bit
+        # of profile near the origin: read so, they keep a part's form, not a heap's
+        extent = float(np.hypot(*np.ptp(centres, axis=0)))
+        return bool(np.all(np.abs(again.deviation) <= limit)
+                    and np.ptp(again.deviation) <= max(FORM_SHARE * extent, FORM_FLOOR_MM))
 
-    cause = likely_cause(touches.centres, fits, "a file of another part, another program or another work offset?")
-    raise MeasurementError(f"this touch lies {deviations.deviation[worst]:+.4f} mm from the program's nominal profile, "
-                           f"beyond the {limit:g} mm any correction reaches: {cause}", touches.where(worst))
+    cause = likely_cause(touches, fits, "a file of another part, another program or another work offset?")
+    if unexplained or cause in {why for _, why in MISREADINGS}:
+        raise MeasurementError(f"this touch lies {deviations.deviation[worst]:+.4f} mm from the program's nominal "
+                               f"profile, beyond the {limit:g} mm any correction reaches: {cause}",
+                               touches.where(worst))
 
 
 def profile_deviations(points, approach, profile: Profile, touches: Touches | None = None) -> Deviations:
@@ -233,13 +246,17 @@ def probe_profile(probe: ProbeFile, profile: Profile, calibration: CalibrationMo
     :param fill: how dropped points are replaced, ``extrapolate`` or ``nearest`` (screening).
     :raises SafetyError: the datum moved (and not ``force``).
     :raises MeasurementError: a direction outside the calibration, a touch no segment faces,
-        or data too scattered to screen.
+        touches far off the profile that a misreading explains (a unit, x as a diameter, the
+        stylus), or data too scattered to screen.
     """
+    points, k = touched_points(probe, calibration)
+    deviations = profile_deviations(points, probe.approach, profile, probe)
+    # a file in the wrong unit is named before its datum, which it would make seem to move
+    check_on_profile(deviations, probe, points, profile, 0.0, unexplained=False)
     notes = check_datum(probe, force, reporter)
     if calibration is not None:
         notes += calibration.report()
-    points, k = touched_points(probe, calibration, reporter)
-    deviations = profile_deviations(points, probe.approach, profile, probe)
+    touched_points(probe, calibration, reporter)
     found = features(profile, lines)
     feature, screening = screen_by_feature(deviations, found, probe, points, floor=floor, fill=fill, reporter=reporter)
     notes += screening.notes

@@ -51,6 +51,7 @@ from ..measure.features import MIN_TOUCHES, Feature, Spread
 from ..geometry import segment_of
 from ..interpret.motion import ARC, Move
 from ..measure.nominal import Nominal
+from ..measure.readers.lengths import stylus_problem
 from .probe_printout import (AFTER, BEFORE, END_STATEMENT, POINT, VAR_COUNT, VAR_DIVISOR, VAR_I, VAR_INDEX, VAR_K,
                              VAR_PROGRAM, VAR_RADIUS, VAR_UNITS, VAR_VERSION, VERSION, header_statement,
                              touch_statement)
@@ -98,6 +99,9 @@ class Cycle:
                             ("--travel-feed", self.travel_feed)):
             if not (math.isfinite(value) and value > 0):
                 raise OptionError(f"{name} {value:g}: must be positive")
+        problem = stylus_problem(self.stylus_radius)
+        if problem:
+            raise OptionError(f"--stylus-radius {self.stylus_radius:g}: {problem}")
         if not (math.isfinite(self.inset) and self.inset >= 0):
             raise OptionError(f"--inset {self.inset:g}: must not be negative")
         if self.per_feature < 1:

@@ -36,14 +36,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..files import inputs
-from ..diagnostics import STDIN_NAME, Location, MeasurementError, Reporter
+from ..diagnostics import STDIN_NAME, Location, MeasurementError, OptionError, Reporter
 from ..measure.readers.csvfile import MAX_BYTES
+from ..measure.readers.lengths import RADII, UNITS, misreading, stylus_problem, travel_problem
 from ..measure.readers.probe import PROBE_MAGIC, UNIT_TOLERANCE
 
 VERSION = 1  #: the printout format written and read here
 DIGITS_POSITION = "[44]"  #: X, Z and R: 4 integer and 4 decimal digits (0.1 um)
 DIGITS_DIRECTION = "[15]"  #: I and K: 1 integer and 5 decimal digits
 POINT, BEFORE, AFTER = "point", "datum before", "datum after"
+#: a --stylus-radius within this share of the printed one times a misreading's factor is that misreading
+STYLUS_AGREES = 0.005
 
 # Macro variables the probing program sets for the printout (local variables of the main program).
 VAR_INDEX, VAR_I, VAR_K = 1, 2, 3
@@ -184,10 +187,11 @@ def read_printout(path: str) -> Printout:
     header = None
     readings: list[Reading] = []
     ended: int | None = None
+    last = 1
     for number, text in _lines(path):
         if not text or set(text) == {"%"}:
             continue
-        where = Location(path, number)
+        last, where = number, Location(path, number)
         if ended is not None:
             raise MeasurementError(f"more printout after END (line {ended}): give one run per file", where)
         match = _HEADER.match(text)
@@ -216,10 +220,12 @@ def read_printout(path: str) -> Printout:
     if header is None:
         raise MeasurementError("no header line of a postproc probing program found "
                                f"('{_EXPECTED['POSTPROC']}')", Location(path))
-    return _checked(path, header, readings, ended)
+    return _checked(path, header, readings, ended, last)
 
 
-def _checked(path: str, header: tuple[int, re.Match], readings: list[Reading], ended: int | None) -> Printout:
+def _checked(path: str, header: tuple[int, re.Match], readings: list[Reading], ended: int | None,
+             last: int) -> Printout:
+    """The run as printed, held to the format; ``last``: the last line that is not blank."""
     line, match = header
     where = Location(path, line)
     version = _integer(match, "version", where, "the format version")
@@ -234,6 +240,10 @@ def _checked(path: str, header: tuple[int, re.Match], readings: list[Reading], e
     radius = _number(match.group("radius"))
     if not radius > 0:
         raise MeasurementError(f"stylus radius R {radius:g}: it must be positive", where)
+    scale = 25.4 if units == 20 else 1.0
+    problem = stylus_problem(radius * scale)
+    if problem:
+        raise MeasurementError(f"stylus radius R {radius:g} (G {units}): {problem}", where)
     count = _integer(match, "count", where, "the number of points")
     if count < 1:
         raise MeasurementError(f"N {count}: the run must touch at least one point", where)
@@ -244,6 +254,12 @@ def _checked(path: str, header: tuple[int, re.Match], readings: list[Reading], e
     after = [r for r in readings if r.record == AFTER]
     for reading in readings:
         _unit(path, reading)
+        for name, value in (("X", reading.x / divisor), ("Z", reading.z)):
+            problem = travel_problem(value * scale)
+            if problem:
+                raise MeasurementError(f"{name} {value * divisor if name == 'X' else value:g} (G {units}"
+                                       f"{', D %d' % divisor if name == 'X' else ''}) is {value * scale:g} mm: "
+                                       f"{problem}", Location(path, reading.line))
     first_point = points[0].line if points else None
     last_point = points[-1].line if points else None
     for reading in before:
@@ -260,8 +276,8 @@ def _checked(path: str, header: tuple[int, re.Match], readings: list[Reading], e
             raise MeasurementError(f"point {reading.index} where point {expected} was expected: {what}",
                                    Location(path, reading.line))
     if ended is None:
-        raise MeasurementError(f"the printout ends without END: the probing program did not finish "
-                               f"({len(points)} of {count} points printed)", Location(path))
+        raise MeasurementError(f"the printout ends here without END: the probing program did not finish "
+                               f"({len(points)} of {count} points printed)", Location(path, last))
     if len(points) != count:
         raise MeasurementError(f"{len(points)} points printed but the header (line {line}) announces {count}",
                                Location(path, ended))
@@ -327,14 +343,27 @@ def probe_data(printout: Printout, stylus_radius: float | None = None, repeatabi
     """The printout in the probe file's terms: radius mm, unit approach vectors, the datum keys.
 
     :param stylus_radius: mm; the stylus the file names (default: the one the program was written for).
+        One larger than any stylus, or the printed one in another unit, is refused (OptionError)
+        with that cause; any other is used with a warning (naming a diameter where it is one).
     """
     scale = printout.scale
     printed = printout.stylus_radius * scale
     if stylus_radius is None:
         stylus_radius = printed
-    elif abs(stylus_radius - printed) > 1e-6 and reporter is not None:
-        reporter.warn(f"the probing program was written for a stylus radius of {printed:g} mm; "
-                      f"{stylus_radius:g} mm is used (--stylus-radius)", Location(printout.path, printout.header_line))
+    elif abs(stylus_radius - printed) > 1e-6:
+        def agrees(meant: float) -> bool:
+            return abs(meant - printed) <= STYLUS_AGREES * printed
+
+        cause = stylus_problem(stylus_radius) or misreading(stylus_radius, agrees, UNITS)
+        if cause:
+            raise OptionError(f"--stylus-radius {stylus_radius:g}: the probing program was written for a stylus "
+                              f"radius of {printed:g} mm; {cause}")
+        if reporter is not None:
+            # twice or half the radius may be another stylus fitted, or a diameter: said, not refused
+            said = misreading(stylus_radius, agrees, RADII[len(UNITS):])
+            reporter.warn(f"the probing program was written for a stylus radius of {printed:g} mm; "
+                          f"{stylus_radius:g} mm is used (--stylus-radius){'; ' + said if said else ''}",
+                          Location(printout.path, printout.header_line))
 
     def centre(reading: Reading) -> tuple[float, float]:
         return reading.x / printout.divisor * scale, reading.z * scale

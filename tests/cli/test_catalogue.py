@@ -114,7 +114,7 @@ BALLBAR = [
      "{f}:1: error: this is a postproc probe file, not a ballbar trace"),
     ("no-magic", b"angle,dev\n0,0\n", "{f}:1: error: the first line must be '# postproc ballbar 1', not 'angle,dev'"),
     ("no-radius", f"# postproc ballbar 1\n# direction = ccw\nangle_deg,deviation_mm\n{ROWS}".encode(),
-     "{f}: error: the header key 'radius_mm' is required"),
+     "{f}:3: error: the header key 'radius_mm' is required; the header lines end here without it"),
     ("radius-text", HEAD.replace("100", "abc").encode() + ROWS.encode(), "{f}:2: error: radius_mm = 'abc' is not a number"),
     ("radius-negative", HEAD.replace("100", "-5").encode() + ROWS.encode(), "{f}:2: error: radius_mm must be positive, not -5"),
     ("direction", HEAD.replace("ccw", "left").encode() + ROWS.encode(),
@@ -175,7 +175,7 @@ BALLBAR = [
      "{f}:4: error: measured = 'yesterday': expected an ISO 8601 time with a time zone, such as "
      "2026-11-20T14:05:00+01:00"),
     ("raw-without-start", b"# postproc ballbar 1\n# radius_mm = 100\n# direction = ccw\ndeviation_mm\n0\n0\n0\n0\n0\n0\n",
-     "{f}: error: the header key 'start_angle_deg' is required"),
+     "{f}:4: error: the header key 'start_angle_deg' is required; the header lines end here without it"),
 ]
 
 
@@ -209,7 +209,7 @@ def test_bad_probe_files(run, tmp_path):
     norepeat = _probe(tmp_path, "\n".join(line for line in text.splitlines() if "repeatability" not in line))
     result = run("compensate", HEMISHELL, "--plugin", "omp-feedback", "--probe", norepeat)
     assert (result.exit_code, result.stderr.splitlines()[0]) == (
-        3, f"{norepeat}: error: datum readings without repeatability_mm: the stability check needs it")
+        3, f"{norepeat}:3: error: datum readings without repeatability_mm: the stability check needs it")
 
 
 def test_a_moved_datum_is_refused_for_safety(run, tmp_path):

@@ -231,3 +231,17 @@ def test_an_export_round_trips_whatever_its_dialect(run, tmp_path_factory, separ
     order = np.argsort(np.mod(angles, 360.0), kind="stable")
     assert np.allclose(trace.angles, np.mod(angles, 360.0)[order], atol=1e-8)
     assert np.allclose(trace.deviations, deviations[order], atol=1e-12 + 1e-9 * math.isclose(scale, 1000.0))
+
+
+def test_raw_deviations_of_a_partial_arc_without_capture_arc_are_refused_naming_it(run, tmp_path):
+    """Before: spread over 360 deg, the readings of a 220 deg test were refused later as a fit
+    the traces do not determine, with no word of --capture-arc."""
+    readings = np.repeat(shape(ARC) / 1000.0, 6)
+    text = "deviation\n" + "".join(f"{value:.7f}\n" for value in readings)
+    result, source, target = imported(run, tmp_path, text, "--radius", "100", "--direction", "cw", "--start-angle",
+                                      "-20")
+    assert result.exit_code == 3 and result.stdout == "" and not target.exists()
+    first = result.stderr.splitlines()[0]
+    assert first.startswith(f"{source}:{readings.size + 1}:1: error: the last reading and the first differ by ")
+    assert first.endswith("so these readings do not go round it (a partial arc: a lathe's test in XZ runs about "
+                          "220 deg); give the arc they span with --capture-arc")

@@ -245,6 +245,8 @@ def test_gcode_system_b_and_soft_limits(run, tmp_path):
     (["--tool", "T9X"], EXIT_BAD_INPUT, "--tool 9X: expected the digits of a T code"),
     (["--program-number", "10000"], EXIT_BAD_INPUT, "a FANUC program number is 1 to 9999"),
     (["--inset", "50"], EXIT_BAD_INPUT, "--inset 50 leaves nothing of the 89.771 mm profile"),
+    (["--stylus-radius", "3000"], EXIT_BAD_INPUT, "--stylus-radius 3000: a stylus radius of 3000 mm is larger than any "
+                                                  "probe's (balls of 0.3 to 25 mm): micrometres written as millimetres?"),
 ])
 def test_bad_options(run, options, code, message):
     result = run("probe-program", HEMISHELL, "--from-line", "10", "--to-line", "10", *options)
@@ -482,9 +484,9 @@ def test_malformed_printouts_are_refused_at_their_line(run, tmp_path, lines, lin
 
 
 @pytest.mark.parametrize("data, message", [
-    (b"", "the printout is empty"),
-    ((HEADER + "\n" + POINT1 + "\n").encode(), "the printout ends without END: the probing program did not finish "
-                                                "(1 of 2 points printed)"),
+    (b"", ": error: the printout is empty"),
+    ((HEADER + "\n" + POINT1 + "\n").encode(), ":2: error: the printout ends here without END: the probing "
+                                                "program did not finish (1 of 2 points printed)"),
     (b"\xd0\xcf\xd3\xd4", None),
 ])
 def test_incomplete_or_garbled_printouts(run, tmp_path, data, message):
@@ -495,7 +497,7 @@ def test_incomplete_or_garbled_printouts(run, tmp_path, data, message):
         assert result.stderr.startswith(f"{printout}:1: error: not an ASCII printout")
         assert "even parity" in result.stderr
     else:
-        assert result.stderr == f"{printout}: error: {message}\n"
+        assert result.stderr == f"{printout}{message}\n"
 
 
 def test_import_from_stdin(run):

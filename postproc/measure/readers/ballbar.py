@@ -33,6 +33,7 @@ from ..ballbar_fit import MAX_GAP_DEG
 from ...diagnostics import Location, MeasurementError, Reporter
 from ..parameters import BAR_LENGTH_MM, TOO_LONG, bar_length_problem
 from .csvfile import read_table
+from .lengths import travel_problem
 
 MAGIC = "# postproc ballbar 1"
 KEYS = {"radius_mm", "direction", "center_x_mm", "center_z_mm", "feed_mm_min", "start_angle_deg",
@@ -177,7 +178,7 @@ def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6
                       f"right for a grid encoder's small circle; a ballbar's test written in inches or cm is in the "
                       f"wrong unit (every length of the file, the deviations too)", Location(path, table.header["radius_mm"][1]))
     direction = table.choice("direction", ("ccw", "cw"), required=True, meaning="ccw: the G03 run, cw: the G02 run")
-    centre = (table.number("center_x_mm", 0.0), table.number("center_z_mm", 0.0))
+    centre = (table.coordinate("center_x_mm", 0.0), table.coordinate("center_z_mm", 0.0))
     feed = table.number("feed_mm_min", positive=True)
     centered = table.flag("centered")
     raw = table.columns == RAW
@@ -193,6 +194,10 @@ def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6
         capture = table.number("capture_arc_deg", 360.0, positive=True)
         if capture > 360.0:
             raise table.error("capture_arc_deg cannot exceed 360", table.header["capture_arc_deg"][1])
+        problem = open_ends(deviations) if capture == 360.0 else None
+        if problem:
+            said = "the file says 360" if "capture_arc_deg" in table.header else "without it, 360 is assumed"
+            raise table.error(f"{problem}; give the arc they span as capture_arc_deg ({said})", table.rows[-1][0])
         angles, deviations = raw_samples(deviations, start, capture, direction == "cw", averaging, reporter, path)
         rows = rows[::averaging][: len(deviations)]
     else:
@@ -211,6 +216,31 @@ def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6
                       averaging if raw else 1, rows)
 
 
+#: a whole circle's first and last readings are neighbours: a step between them this many times
+#: the largest between any other two (and above CLOSURE_FLOOR_MM) is the two ends of an arc
+CLOSURE_RATIO = 3.0
+CLOSURE_FLOOR_MM = 0.0005
+
+
+def open_ends(readings: np.ndarray) -> str | None:
+    """What says that raw readings taken to go round the whole circle (a capture of 360 deg, the
+    default) do not: their last and first readings are not neighbours. A partial arc's ends (a
+    lathe's test in XZ runs about 220 deg), spread over 360 deg, would put every reading at the
+    wrong angle. A step there several times any other is such a gap; a machine's own step (the
+    backlash at a reversal) recurs within the circle at the axis's other reversal. None if they
+    close (or are too few to tell)."""
+    if len(readings) < MIN_SAMPLES:
+        return None
+    closure = abs(float(readings[0] - readings[-1]))
+    largest = float(np.max(np.abs(np.diff(readings))))
+    if closure > CLOSURE_FLOOR_MM and closure > CLOSURE_RATIO * largest:
+        return (f"the last reading and the first differ by {closure * 1000:.2f} um, {closure / max(largest, 1e-12):.0f} "
+                f"times the largest step between other neighbours ({largest * 1000:.2f} um): on a whole circle they "
+                "are neighbours, so these readings do not go round it (a partial arc: a lathe's test in XZ runs about "
+                "220 deg)")
+    return None
+
+
 def make_trace(path: str, radius: float, direction: str, angles, deviations, centre: tuple[float, float] = (0.0, 0.0),
                feed: float | None = None, centered: bool = False, raw: bool = False,
                extras: dict[str, str] | None = None, averaging: int = 1, rows=None) -> BallbarTrace:
@@ -220,6 +250,10 @@ def make_trace(path: str, radius: float, direction: str, angles, deviations, cen
     problem = bar_length_problem(float(radius))
     if problem:
         raise MeasurementError(f"a test radius of {float(radius):g} mm is {problem}", Location(path))
+    for axis, value in zip("xz", centre):
+        problem = travel_problem(float(value))
+        if problem:
+            raise MeasurementError(f"the test centre's {axis} = {float(value):g} mm: {problem}", Location(path))
     angles = np.mod(np.asarray(angles, dtype=float), 360.0)
     angles[angles >= 360.0] = 0.0  # np.mod(-1e-17, 360) is 360
     deviations = np.asarray(deviations, dtype=float)

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 from ...files import inputs
 from ...diagnostics import Location, MeasurementError
+from .lengths import travel_problem
 
 MAX_BYTES = 64 * 1024 * 1024  #: a measurement file larger than this is not a measurement file
 
@@ -40,6 +41,8 @@ class Table:
     extras: dict[str, str]  #: the x- keys
     columns: list[str]
     rows: list[tuple[int, list[float]]] = field(default_factory=list)  #: (line, values)
+    #: the line of the CSV header row, where the header lines ended: where a missing key was due
+    columns_line: int | None = None
 
     def where(self, line: int | None = None) -> Location:
         return Location(self.path, line)
@@ -53,12 +56,18 @@ class Table:
 
     # -- header values --------------------------------------------------------------
 
+    def missing(self, key: str, expected: str = "") -> MeasurementError:
+        """A required key the header lacks, at the line where the header ended without it."""
+        said = f" ({expected})" if expected else ""
+        return self.error(f"the header key {key!r} is required{said}; the header lines end here without it",
+                          self.columns_line)
+
     def number(self, key: str, default: float | None = None, positive: bool = False, required: bool = False,
                at_most: tuple[float, str] | None = None) -> float | None:
         """A header number; ``at_most``: (the largest plausible value, what a larger one most likely is)."""
         if key not in self.header:
             if required:
-                raise self.error(f"the header key {key!r} is required")
+                raise self.missing(key)
             return default
         text, line = self.header[key]
         value = _float(text)
@@ -70,13 +79,22 @@ class Table:
             raise self.error(f"{key} = {text} is above {at_most[0]:g}: {at_most[1]}", line)
         return value
 
+    def coordinate(self, key: str, default: float | None = None, required: bool = False) -> float | None:
+        """A header coordinate, mm from the work origin, held to any lathe's travel
+        (:func:`~postproc.measure.readers.lengths.travel_problem`: micrometres, inches)."""
+        value = self.number(key, default, required=required)
+        problem = None if value is None or key not in self.header else travel_problem(value)
+        if problem:
+            raise self.error(f"{key} = {self.header[key][0]}: {problem}", self.header[key][1])
+        return value
+
     def choice(self, key: str, options: tuple[str, ...], default: str | None = None, required: bool = False,
                meaning: str = "") -> str | None:
         """One of ``options`` (any letter case); ``meaning`` says what each is, in the refusal."""
         said = f" ({meaning})" if meaning else ""
         if key not in self.header:
             if required:
-                raise self.error(f"the header key {key!r} is required ({' or '.join(options)}{'; ' + meaning if meaning else ''})")
+                raise self.missing(key, f"{' or '.join(options)}{'; ' + meaning if meaning else ''}")
             return default
         text, line = self.header[key]
         value = text.strip().lower()
@@ -209,7 +227,7 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
         expected = " or ".join(",".join(c) for c in column_sets)
         raise MeasurementError(f"the CSV header row must be {expected}, not {lines[number - 1].strip()!r}"
                                f"{CONVERTERS.get(magic, '')}", Location(path, number))
-    table = Table(path, header, extras, columns)
+    table = Table(path, header, extras, columns, columns_line=number)
     for row_number in range(number + 1, len(lines) + 1):
         text = lines[row_number - 1].strip()
         if not text:

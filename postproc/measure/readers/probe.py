@@ -17,6 +17,8 @@ import numpy as np
 
 from ...diagnostics import Location
 from .csvfile import Table, read_table
+from ...machine.bounds import MAX_CORRECTION
+from .lengths import DIAMETERS, MAX_TRAVEL, RADII, WRITTEN, misreading, stylus_problem, travel_problem
 
 PROBE_MAGIC = "# postproc probe 1"
 CALIBRATION_MAGIC = "# postproc probe-calibration 1"
@@ -28,20 +30,35 @@ UNIT_TOLERANCE = 0.001
 #: mm; a probe repeating worse than the largest correction cannot measure one (and as the floor of the
 #: outlier screening, a repeatability this large would call no touch an outlier, not even the nub)
 MAX_REPEATABILITY = 0.1
-#: (what the file's centres become, the likely cause) tried when touches lie far off what was probed
+#: mm; no datum vouching for a profile's touches lies further from all of them
+DATUM_REACH_MM = 1000.0
+#: A touch-trigger probe triggers after contact, so the touched artifact reads smaller than it is
+#: by the pretravel: some micrometres, a few tens with a long stylus (mm)
+MAX_PRETRAVEL_MM = 0.05
+#: (what the file's stylus centres and stylus radius become, the likely cause), tried in order
+#: when touches lie far off what was probed (the profile, the artifact)
 MISREADINGS = (
-    (lambda centres: centres / 1000.0, "micrometres written as millimetres? (the coordinates divided by 1000 fit)"),
-    (lambda centres: centres * np.array([0.5, 1.0]), "x written as a diameter? (x is a radius, as in `postproc path`; "
-                                                     "halved, it fits)"),
+    (lambda c, r: (c / 1000.0, r), "micrometres written as millimetres? (the coordinates divided by 1000 fit)"),
+    (lambda c, r: (c * np.array([0.5, 1.0]), r), "x written as a diameter? (x is a radius, as in `postproc path`; "
+                                                 "halved, it fits: a printout's D 1 where X was printed as a "
+                                                 "diameter, D 2?)"),
+    (lambda c, r: (c * np.array([2.0, 1.0]), r), "x halved twice? (doubled, it fits: a printout's D 2 where X was "
+                                                 "printed as a radius, D 1?)"),
+    (lambda c, r: (c / 25.4, r), "millimetres read as inches? (the coordinates divided by 25.4 fit: a printout "
+                                 "headed G 20 whose numbers are millimetres?)"),
+    (lambda c, r: (c * 25.4, r * 25.4), "inches written as millimetres? (every length times 25.4 fits)"),
+    (lambda c, r: (c, r / 2.0), "stylus_radius_mm is the ball's diameter? (halved, it fits)"),
+    (lambda c, r: (c, r * 2.0), "stylus_radius_mm is half the ball's radius? (doubled, it fits)"),
+    (lambda c, r: (c, r * 25.4), "stylus_radius_mm in inches? (times 25.4, it fits)"),
 )
 
 
-def likely_cause(centres: np.ndarray, fits, otherwise: str) -> str:
+def likely_cause(touches: "Touches", fits, otherwise: str) -> str:
     """Why touches lie far off what was probed: the first of :data:`MISREADINGS` under which
-    ``fits(centres)`` holds, else ``otherwise``. Asked only once touches are found off, so it
-    costs nothing on a good file."""
+    ``fits(centres, stylus_radius)`` holds, else ``otherwise``. Asked only once touches are
+    found off, so it costs nothing on a good file."""
     for misread, cause in MISREADINGS:
-        if fits(misread(centres)):
+        if fits(*misread(touches.centres, touches.stylus_radius)):
             return cause
     return otherwise
 
@@ -102,45 +119,124 @@ def _touches(table: Table) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
     for line, length in zip(lines, lengths):
         if abs(length - 1.0) > UNIT_TOLERANCE:
             raise table.error(f"the approach vector has length {length:.6f}; it must be a unit vector (within 0.001)", line)
+    far = np.nonzero(np.abs(centres) > MAX_TRAVEL)
+    if len(far[0]):
+        row, column = int(far[0][0]), int(far[1][0])
+        raise table.error(f"{COLUMNS[column]} = {centres[row, column]:g}: {travel_problem(centres[row, column])}",
+                          lines[row])
     # A touch repeated at the same stylus centre is kept: at a printout's 1 um a repeatability
     # check gives that to the last digit, and a row copied twice only weighs its point twice.
     return centres, approach / lengths[:, None], lines
 
 
+def _stylus(table: Table) -> float:
+    stylus = table.number("stylus_radius_mm", positive=True, required=True)
+    problem = stylus_problem(stylus)
+    if problem:
+        raise table.error(f"stylus_radius_mm = {stylus:g}: {problem}", table.header["stylus_radius_mm"][1])
+    return stylus
+
+
+def _datum(table: Table, repeatability: float | None, centres: np.ndarray) -> tuple[dict[str, float], dict[str, float]]:
+    """The datum readings before and after the profile, axis -> mm, in pairs.
+
+    A pair that is no drift of one datum (:func:`_misread_datum`: readings more than any
+    correction apart, or a datum metres from every touch that drifts) is no move of the machine
+    a forced run could use (``--force`` covers a datum that moved by more than the
+    repeatability), but a value misread: refused at its line, naming how."""
+    keys = {(phase, axis): f"datum_{phase}_{axis}_mm" for phase in ("before", "after") for axis in "xz"}
+    read = {place: table.coordinate(key) for place, key in keys.items()}
+    given = {place: value for place, value in read.items() if value is not None}
+    for (phase, axis) in given:
+        other = "after" if phase == "before" else "before"
+        if (other, axis) not in given:
+            raise table.error(f"{keys[phase, axis]} without {keys[other, axis]}: the stability check needs the same "
+                              "datum touched before and after the profile", table.header[keys[phase, axis]][1])
+    stable = repeatability if repeatability is not None else MAX_REPEATABILITY
+    for axis in "xz":
+        if ("before", axis) in given:
+            found = _misread_datum(given["before", axis], given["after", axis], stable, centres[:, "xz".index(axis)],
+                                   WRITTEN + DIAMETERS if axis == "x" else WRITTEN)
+            if found:
+                phase, cause, how = found
+                before, after = given["before", axis], given["after", axis]
+                raise table.error(f"datum_before_{axis}_mm = {before:g} and datum_after_{axis}_mm = {after:g} differ "
+                                  f"by {abs(after - before):.4f} mm, {how}, which no forced run can use: {cause}; "
+                                  "correct the file, or probe again", table.header[keys[phase, axis]][1])
+    return ({axis: value for (phase, axis), value in given.items() if phase == "before"},
+            {axis: value for (phase, axis), value in given.items() if phase == "after"})
+
+
+def _misread_datum(before: float, after: float, stable: float, touched: np.ndarray,
+                   readings) -> tuple[str, str, str] | None:
+    """(the reading misread, the likely cause, what gives it away) of a datum pair that is no
+    drift of one datum, or None. Readings more than a correction apart: the one that, read
+    otherwise, agrees best with the other; else both in um or inches when so read they drift by
+    no more than ``stable`` and lie nearer the ``touched`` stretch of the axis; else two datums.
+    Readings that drift by more than ``stable`` only, but lie further than DATUM_REACH_MM from
+    every touch, are both in um or inches when so read they are stable and among the touches."""
+    drift = abs(after - before)
+
+    def off(value: float) -> float:  # from the stretch of that axis the touches cover
+        return max(float(touched.min()) - value, value - float(touched.max()), 0.0)
+
+    def both(near: float) -> str | None:
+        cause = next((explain(after - before) for factor, explain in WRITTEN
+                      if drift * factor <= stable and off(before * factor) < near), None)
+        return cause and f"both readings {cause}"
+
+    if drift > MAX_CORRECTION:
+        how = f"more than any correction ({MAX_CORRECTION:g} mm)"
+        agree = sorted((abs(value * factor - fixed), phase, explain(value))
+                       for phase, fixed, value in (("after", before, after), ("before", after, before))
+                       for factor, explain in readings if abs(value * factor - fixed) <= MAX_CORRECTION)
+        if agree:
+            return agree[0][1], agree[0][2], how
+        return "before", both(off(before)) or "not one datum touched twice (another face or diameter, or a digit " \
+                                               "wrong)", how
+    if drift > stable and off(before) > DATUM_REACH_MM:
+        cause = both(DATUM_REACH_MM)
+        if cause:
+            return "before", cause, (f"more than repeatability_mm = {stable:g}, the datum {off(before):.0f} mm from "
+                                     "every touch")
+    return None
+
+
 def read_probe(path: str) -> ProbeFile:
     table = read_table(path, PROBE_MAGIC, PROBE_KEYS, [COLUMNS])
-    stylus = table.number("stylus_radius_mm", positive=True, required=True)
-    before = {axis: table.number(f"datum_before_{axis}_mm") for axis in "xz"}
-    after = {axis: table.number(f"datum_after_{axis}_mm") for axis in "xz"}
-    before = {axis: value for axis, value in before.items() if value is not None}
-    after = {axis: value for axis, value in after.items() if value is not None}
-    if set(before) != set(after):
-        missing = sorted(set(before) ^ set(after))
-        raise table.error(f"the datum is given before and after for different axes ({', '.join(missing)} unmatched)")
+    stylus = _stylus(table)
     repeatability = table.number("repeatability_mm", positive=True, at_most=(MAX_REPEATABILITY, (
         "no probe that repeats so poorly can measure a correction (at most 0.1 mm); micrometres written as "
         "millimetres?")))
-    if before and repeatability is None:
-        raise table.error("datum readings without repeatability_mm: the stability check needs it")
     centres, approach, lines = _touches(table)
+    before, after = _datum(table, repeatability, centres)
+    if before and repeatability is None:
+        first = min(table.header[key][1] for key in table.header if key.startswith("datum_"))
+        raise table.error("datum readings without repeatability_mm: the stability check needs it", first)
     return ProbeFile(path, stylus, centres, approach, lines, table.extras, before, after, repeatability)
 
 
 def read_calibration(path: str) -> CalibrationRun:
     table = read_table(path, CALIBRATION_MAGIC, CALIBRATION_KEYS, [COLUMNS])
-    stylus = table.number("stylus_radius_mm", positive=True, required=True)
+    stylus = _stylus(table)
     radius = table.number("artifact_radius_mm", positive=True, required=True)
-    centre = (table.number("artifact_center_x_mm", required=True), table.number("artifact_center_z_mm", required=True))
+    centre = (table.coordinate("artifact_center_x_mm", required=True),
+              table.coordinate("artifact_center_z_mm", required=True))
     centres, approach, lines = _touches(table)
     run = CalibrationRun(path, stylus, centres, approach, lines, table.extras, radius, centre)
     factors = run.factors()
     worst = int(np.argmax(np.abs(factors)))
     if abs(factors[worst]) > 0.5 * stylus:
-        def fits(centres: np.ndarray) -> bool:
+        def fits(centres: np.ndarray, stylus: float) -> bool:  # read so, every k is a pretravel
             return bool(np.all(np.abs(CalibrationRun(path, stylus, centres, approach, lines, {}, radius, centre)
-                                      .factors()) <= 0.5 * stylus))
+                                      .factors()) <= MAX_PRETRAVEL_MM))
 
-        cause = likely_cause(centres, fits, "not a touch on the artifact (check artifact_radius_mm and its centre)")
+        def artifact_fits(meant: float) -> bool:
+            return bool(np.all(np.abs(factors + radius - meant) <= MAX_PRETRAVEL_MM))
+
+        artifact = misreading(radius, artifact_fits, RADII)
+        cause = likely_cause(run, fits, f"artifact_radius_mm = {radius:g}: {artifact}" if artifact else
+                             "not a touch on the artifact (check artifact_radius_mm and its centre)")
         raise table.error(f"this touch is {factors[worst]:+.4f} mm off the artifact's surface: {cause}", lines[worst])
     return run
 
