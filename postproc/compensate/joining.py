@@ -48,7 +48,9 @@ class Joining:
             else:
                 self._explicit(previous)
                 last_edit = previous.edits[previous.step.moves.index(last_move)]
-        if not connected:  # the next move does not start from here (a contour's end, a jump): nothing to join
+        if not connected:  # the next move does not start from here (a cycle's start point, a shift, a jump)
+            if first_edit is not None and (last_move.role == CONTOUR or not self._moved_end(last_move, last_edit, entry)):
+                self._from_nominal_start(entry)  # the tool stands where the program as written has it
             return
         nominal = (last_move.x1, last_move.z1)
         if last_edit is None and first_edit is None:
@@ -76,11 +78,21 @@ class Joining:
         elif self._end_would_move(entry, last_edit.end, nominal):
             self._retarget(entry, start=last_edit.end)
 
+    def _moved_end(self, move, edit, entry: Entry) -> bool:
+        """Whether the move ends off its nominal end on the output grid (its correction there)."""
+        if edit is None:
+            return False
+        grid = self._grid(entry.step)
+        return grid.snap(*edit.end) != grid.snap(move.x1, move.z1) if None not in (move.x1, move.z1) else True
+
     def _from_nominal_start(self, entry: Entry) -> None:
         """A motion step with no motion step before it to join to (the program's first, the first
-        after a block that names where the tool stands or that calls or returns) starts where the
-        program as written has the tool: the nominal start of its first move along the program. A
-        corrected start is met from there by a connecting G01, as after a move left as it was."""
+        after a block that names where the tool stands or that calls or returns), or whose start is
+        not the last move's end while the tool stands where the program has it (the start point a
+        G70-G73 cycle goes back to, a shift by G50 U/W after a move that ends where it did), starts
+        where the program as written has the tool: the nominal start of its first move along the
+        program. A corrected start is met from there by a connecting G01, as after a move left as
+        it was."""
         moves = entry.step.moves
         first = next((index for index, move in enumerate(moves) if move.role in ALONG), None)
         if first is None:

@@ -84,8 +84,10 @@ class SelfCheck:
         """Where the blocks written before the step leave the tool, when that is known and the
         step's first move starts from there: the replacement's first cut must start at that
         point, so that the joins the rewriter made are read back too, not only each block's own
-        moves. None where the control, not the program, decides (a cycle's contour, a move that
-        does not start where the last one ended: a jump, the end of a cycle) or nothing is known."""
+        moves. A move that does not start where the last one ended (a cycle's start point, a shift
+        by G50 U/W, a jump) starts where the program has the tool, if the last move ended where the
+        program has it. None where the control, not the program, decides (a cycle's contour) or
+        nothing is known."""
         moves = step.moves
         if not moves or moves[0].role not in ALONG or None in (moves[0].x0, moves[0].z0):
             return None
@@ -96,9 +98,12 @@ class SelfCheck:
         if tool is None or first.role == CONTOUR:
             return None
         last, end = tool
-        if (last.role == CONTOUR or None in (last.x1, last.z1)
-                or abs(last.x1 - first.x0) > JOIN or abs(last.z1 - first.z0) > JOIN):
+        if last.role == CONTOUR:  # the cycle leaves the tool at its start point, where the program has it
+            return (first.x0, first.z0)
+        if None in (last.x1, last.z1):
             return None
+        if abs(last.x1 - first.x0) > JOIN or abs(last.z1 - first.z0) > JOIN:  # a shift (G50 U/W), a jump
+            return (first.x0, first.z0) if end is None or not self._off_the_grid_point(step, end, (last.x1, last.z1)) else None
         return end if end is not None else (first.x0, first.z0)
 
     def _off_the_grid_point(self, step: Step, point: tuple[float, float], stands: tuple[float, float]) -> bool:

@@ -190,6 +190,11 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
         first, second = held.moves[index], step.moves[j]
         if second.kind not in (LINE, ARC) or not (second.exact and first.exact):
             raise InterpretationError(f"corner {kind} must be followed by a G01/G02/G03 move (FANUC alarm PS0051)", where)
+        if not (first.known and second.known):  # from an unknown position the way into the corner is unknown
+            held.moves = held.moves[:index] + (first._replace(x1=None, z1=None, exact=False),) + held.moves[index + 1 :]
+            step.moves = step.moves[:j] + (second._replace(x0=None, z0=None, exact=False),) + step.moves[j + 1 :]
+            self._corner = None
+            return True
         try:
             shortened, corner, rest = corner_moves(first, second, kind, size)
         except CornerError as exc:

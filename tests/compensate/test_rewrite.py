@@ -756,3 +756,29 @@ def test_a_move_with_nothing_before_it_to_join_starts_from_its_nominal_start(bef
     joined = [m for m in read if (m.x0, m.z0) == pytest.approx((10.0, 5.0))]
     assert joined and (joined[-1].x1, joined[-1].z1) == pytest.approx((10.003, 4.998))
     assert rewriter.worst <= 0.001
+
+
+@pytest.mark.parametrize("head, marker", [
+    ("G00 X182. Z2.\nG73 U5. W1. R3\nG73 P10 Q20 U0.4 W0.1 F0.2\nN10 G00 X140.\nG01 Z-60.\nN20 X182. Z2.\nG70 P10 Q20",
+     "G70 P10 Q20"),
+    ("G00 X182. Z2.\nG71 U2. R0.5\nG71 P10 Q20 U0.4 W0.1 F0.2\nN10 G00 X140.\nG01 Z-60.\nN20 X182.", "N20 "),
+    ("G00 X182. Z2.\nG71 U2. R0.5\nG71 P10 Q20 U0.4 W0.1 F0.2\nN10 G00 X140.\nG01 Z-60.\nN20 X182.\nG70 P10 Q20",
+     "G70 P10 Q20"),
+    ("G00 X182. Z2.\nG50 U10.", "G50 U10."),
+    ("G00 X182. Z2.\nG50 W-20.", "G50 W-20."),
+])
+def test_a_move_from_where_the_program_put_the_tool_is_joined_from_there(head, marker):
+    """A move that does not start where the last move ended, while the tool stands where the
+    program as written has it: the start point a G70-G73 cycle goes back to, or a shift of the
+    coordinates by G50 U/W after a move left as it was. A corrected start is met from the move's
+    nominal start by a connecting G01 (without it the move ran from the nominal start, off its
+    plan by the correction there; after G70 the self-check now refuses that)."""
+    text = f"G18 G21 G99 F0.1\n{head}\nG01 X190. Z-70.\nM30\n"
+    shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
+    out, _ = rewrite(text, shift, tolerance=0.001)
+    lines = out.splitlines()
+    after = next(i for i in range(len(lines) - 1, -1, -1) if lines[i].startswith(marker))
+    start = next(m for m in moves(text) if m.line == len(text.splitlines()) - 1)  # the move's nominal start
+    x, z = (start.x0 + 0.003) * 2, start.z0 - 0.002
+    assert lines[after + 1] == f"G01 X{x:.3f} Z{z:.3f}".replace(".000", "."), out
+    assert lines[after + 2] == "X190.006 Z-70.002"

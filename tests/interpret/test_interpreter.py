@@ -213,6 +213,20 @@ def test_chamfer_and_corner_radius_are_rows_of_their_own():
     assert rows[4][2:4] == ((40.0, -25.0), (40.0, -40.0))
 
 
+@pytest.mark.parametrize("before", ["", "M98 P1000\n", "G28 U0. W0.\n", "G65 P9010\n"])
+@pytest.mark.parametrize("corner", [",C1.", ",R1."])
+def test_a_corner_from_an_unknown_position_leaves_its_moves_unknown(before, corner):
+    """A chamfer or rounding whose first move starts where the program does not say (the first
+    move of the program, after a call or a reference return): the way into the corner is
+    unknown, so are its points. The first move's end and the next one's start are unknown, never
+    guessed (it raised a TypeError, exit 5); the next move's end is known again."""
+    result = moves(f"G18 G21 G99 F0.1\n{before}G01 X140. Z-40. {corner}\nX170.\nZ-80.\n")
+    chamfered, following, last = result[-3:]
+    assert (chamfered.x1, chamfered.z1) == (None, None) and not chamfered.exact
+    assert (following.x0, following.z0, following.x1, following.z1) == (None, None, 85.0, -40.0)
+    assert last.known and (last.x0, last.z0, last.x1, last.z1) == (85.0, -40.0, 85.0, -80.0)
+
+
 def test_corner_without_a_following_move_is_refused():
     with pytest.raises(InterpretationError) as info:
         moves(START + "G01 X40. ,C2.\nG00 X100.\n")
