@@ -641,6 +641,30 @@ def test_a_move_that_calls_keeps_its_end_or_is_refused_at_the_call(call):
     assert f"X40. Z-10. {call}" in out.splitlines()
 
 
+_G71 = "G71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\n"
+
+
+@pytest.mark.parametrize("cycle, n15, n20, line, said", [
+    (_G71, "G01 Z-10.", "N20 G01 X130. M98 P2000", 8, "its label N20 is the Q of the cycle on line 4"),
+    (_G71, "G01 Z-10.", "N20 G01 X130. M99", 8, "would stand outside P..Q and run once, after the cycle"),
+    ("", "G01 Z-10.", "N20 G01 X130. M98 P2000", 6, "its label N20 is the Q of a G70-G73 cycle"),
+    (_G71, "G01 Z-10. M98 P2000", "N20 G01 X130.", 6, "in the contour of the cycle on line 4 (between its P and Q)"),
+])
+def test_a_call_in_a_cycles_contour_is_refused_with_a_remedy_that_keeps_it_there(cycle, n15, n20, line, said):
+    """A call in a block of a cycle's P..Q contour is part of the contour: the usual remedy (a
+    block of its own after the move) would take it out of P..Q when the block is the one the Q
+    names, and inside a G71 contour nothing goes back to the programmed end before it. The
+    refusal says so and gives the remedy that keeps the program's meaning."""
+    text = (f"G18 G21 G99 F0.1\nG00 X132. Z5.\n{cycle}N10 G00 X20.\n{n15}\nX30. Z-20.\n{n20}\nG70 P10 Q20\n"
+            "G00 X200.\nM30\n")
+    shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
+    with pytest.raises(UnplannableBlock) as refused:
+        rewrite(text, shift, tolerance=0.001)
+    message = str(refused.value)
+    assert refused.value.location.line == line and said in message and "--keep-unplannable" in message
+    assert "give the call a block of its own" not in message
+
+
 @pytest.mark.parametrize("after", ["M98 P2000", "G50 X130. Z5.", "(C)\n" * 40 + "M08"])
 def test_after_a_cycles_contour_nothing_goes_back_to_its_end(after, monkeypatch):
     """After the last block of a G71 contour the tool stands at the cycle's start point, not at
