@@ -68,6 +68,25 @@ def format_message(severity: str, message: str, location: Location | None) -> st
     return f"{text}\n{caret}" if caret else text
 
 
+def out_of_range(number: float, whole: bool = False, above: float | None = None, at_least: float | None = None,
+                 at_most: float | None = None) -> str | None:
+    """What an option's number must be, said the one way every option says it ("must be
+    positive", "must be a whole number from 1 to 9999"), or None when it is within its range.
+    A value outside the range is a wrong option value: exit 3, whichever command or plugin."""
+    if ((above is None or number > above) and (at_least is None or number >= at_least)
+            and (at_most is None or number <= at_most)):
+        return None
+    if above == 0 and at_least is None and at_most is None:
+        rule = "positive"
+    elif at_least is not None and at_most is not None:
+        rule = f"from {at_least:g} to {at_most:g}"
+    elif at_least is not None:
+        rule = f"{at_least:g} or more"
+    else:
+        rule = " and ".join([f"above {above:g}"] * (above is not None) + [f"at most {at_most:g}"] * (at_most is not None))
+    return f"must be a whole number, {rule}" if whole else f"must be {rule}"
+
+
 class PostprocError(Exception):
     """Base of every error postproc reports to its user."""
 

@@ -12,7 +12,6 @@ the command line of the next round on stderr and nothing written.
 
 from __future__ import annotations
 
-import math
 import os
 import sys
 
@@ -21,10 +20,10 @@ import click
 from ..machine import bounds
 from ..measure.artifact import TOLERANCE, Finding, finding, round_from_touches
 from .inspect import EXIT_RECUT
-from ..diagnostics import Location, MeasurementError, OptionError, UsageError
+from ..diagnostics import Location, MeasurementError, UsageError
 from ..measure.readers.probe import CALIBRATION_MAGIC, Touches, read_calibration, read_probe
 from ..files.output import STDOUT, write_atomically
-from .common import examples, guard
+from .common import POSITIVE, examples, guard
 
 
 @click.command("artifact-find", epilog=examples(
@@ -33,8 +32,8 @@ from .common import examples, guard
     "# settled: the calibration file from the sweep over the ball, with the found centre and apparent radius",
     "postproc artifact-find round1.csv round2.csv --artifact-radius 25.4 --sweep sweep.csv -o calibration.csv"))
 @click.argument("rounds", nargs=-1, required=True)
-@click.option("--artifact-radius", type=float, required=True, metavar="MM", help="The sphere's certified radius.")
-@click.option("--tolerance", type=float, default=TOLERANCE, show_default=True, metavar="MM",
+@click.option("--artifact-radius", type=POSITIVE, required=True, metavar="MM", help="The sphere's certified radius.")
+@click.option("--tolerance", type=POSITIVE, default=TOLERANCE, show_default=True, metavar="MM",
               help="The finding counts when it lies this close to where its round was taken (above the probe's "
                    "repeatability).")
 @click.option("--sweep", metavar="FILE", help="The calibration touches over the ball, a probe file or a calibration "
@@ -44,8 +43,6 @@ from .common import examples, guard
 def command(rounds, artifact_radius, tolerance, sweep, output):
     """Locate the calibration sphere from rounds of pole and side touches; write its calibration file."""
     guard([("ROUND", name) for name in rounds] + [("--sweep", sweep)], [("-o", output)])
-    if not (math.isfinite(artifact_radius) and artifact_radius > 0):
-        raise OptionError(f"--artifact-radius {artifact_radius:g}: must be positive")
     bounds.bounded(tolerance, "--tolerance", bounds.MAX_TOLERANCE,
                    "so coarse that a round far off the ball's centre would count as settled")
     if output != STDOUT and sweep is None:

@@ -15,11 +15,11 @@ import click
 
 from ..compensate import progress
 from ..onmachine.artifact_cycle import NAME, plan_round
-from ..diagnostics import Location, OptionError, Reporter
+from ..diagnostics import Location, Reporter
 from ..files.output import write_atomically
 from ..onmachine.probe_cycle import Cycle, code_digits, self_check
 from ..machine.profile import DEFAULT, load
-from .common import FINITE, examples, guard
+from .common import FINITE, POSITIVE, examples, guard
 from .probe_program import DEFAULTS, program_options
 
 
@@ -31,16 +31,16 @@ from .probe_program import DEFAULTS, program_options
 @click.option("--center-x", type=FINITE, required=True, metavar="MM",
               help="The estimated centre's x (radius): by eye for the first round, the last round's finding after.")
 @click.option("--center-z", type=FINITE, required=True, metavar="MM", help="The estimated centre's z.")
-@click.option("--artifact-radius", type=FINITE, required=True, metavar="MM", help="The sphere's certified radius.")
-@click.option("--stylus-radius", type=FINITE, default=DEFAULTS.stylus_radius, show_default=True, metavar="MM",
+@click.option("--artifact-radius", type=POSITIVE, required=True, metavar="MM", help="The sphere's certified radius.")
+@click.option("--stylus-radius", type=POSITIVE, default=DEFAULTS.stylus_radius, show_default=True, metavar="MM",
               help="The stylus ball's radius.")
-@click.option("--clearance", type=FINITE, default=DEFAULTS.clearance, show_default=True, metavar="MM",
+@click.option("--clearance", type=POSITIVE, default=DEFAULTS.clearance, show_default=True, metavar="MM",
               help="Each approach starts this far outside the estimated ball: more than the estimate's error.")
-@click.option("--overtravel", type=FINITE, metavar="MM",
+@click.option("--overtravel", type=POSITIVE, metavar="MM",
               help="How far inside the estimated ball the skip move aims (default: the clearance).")
-@click.option("--feed", type=FINITE, default=DEFAULTS.feed, show_default=True, metavar="MM/MIN",
+@click.option("--feed", type=POSITIVE, default=DEFAULTS.feed, show_default=True, metavar="MM/MIN",
               help="Probing feed of the skip moves (the calibration's).")
-@click.option("--travel-feed", type=FINITE, default=DEFAULTS.travel_feed, show_default=True, metavar="MM/MIN",
+@click.option("--travel-feed", type=POSITIVE, default=DEFAULTS.travel_feed, show_default=True, metavar="MM/MIN",
               help="Feed of the moves near the ball.")
 @program_options
 def command(center_x, center_z, artifact_radius, stylus_radius, clearance, overtravel, feed, travel_feed, tool,
@@ -50,8 +50,6 @@ def command(center_x, center_z, artifact_radius, stylus_radius, clearance, overt
                   code_digits(tool, "T"), code_digits(probe_on, "M"), code_digits(probe_off, "M"))
     cycle.check()  # the options first: before any file is read
     guard([("--machine", machine)], [("-o", output)])
-    if not artifact_radius > 0:
-        raise OptionError(f"--artifact-radius {artifact_radius:g}: must be positive")
     profile = load(machine) if machine else DEFAULT
     reporter = Reporter(sys.stderr)
     planned = plan_round((center_x, center_z), artifact_radius, cycle, profile)

@@ -31,7 +31,7 @@ from ..measure.ballbar_fit import arc_text
 from ..diagnostics import Location, MeasurementError, Reporter, UsageError
 from ..measure.readers.ballbar import BallbarTrace
 from ..report.plotting import plot_traces
-from .common import BALLBAR, POSITIVE, examples, guard
+from .common import BALLBAR, COUNT, POSITIVE, examples, guard
 
 BOTH_DIRECTIONS = ["bidirectional_circular_deviation_mm", "hysteresis_mm", "squareness_rad", "servo_mismatch_mm",
                    "servo_lag_ms"]
@@ -49,7 +49,7 @@ DIRECTIONS = ("ccw", "cw")
 @BALLBAR(help="A trace, as fit and compensate take it (the same as FILE).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of the report.")
 @click.option("--plot", metavar="FILE", help="Write a polar plot of the traces (.png or .svg).")
-@click.option("--averaging", type=click.IntRange(min=1), default=6, show_default=True, metavar="N",
+@click.option("--averaging", type=COUNT, default=6, show_default=True, metavar="N",
               help="Raw form: readings averaged per sample.")
 @click.option("--max-deviation", type=POSITIVE, default=1.0, show_default=True,
               metavar="MM", help="A deviation beyond this is not a plausible ballbar reading.")

@@ -1,10 +1,13 @@
 """What every command shares: option types for numbers, and the rule that no output is an input.
 
-Numbers: ``float`` would take ``inf`` and ``nan`` (and ``1e999``); every number a command takes
-is a length, a feed, an angle or a time, so a value that is not finite is refused as it is
-read: exit 3 (a wrong option value, formats.md) with the message in postproc's own form.
-Whether a value must also be positive, or within a bound, is the command's or the library's
-to say (:mod:`postproc.machine.bounds`), with the message that names the rule.
+Numbers: ``float`` would take ``inf`` and ``nan`` (and ``1e999``), and click's ``int`` and
+``IntRange`` refuse with a usage error (exit 2); every number a command takes is a length, a
+feed, an angle, a time or a count with a range that makes sense, so a value that is not a
+number, not finite or outside that range is refused as it is read: exit 3 (a wrong option
+value, formats.md) with one message in postproc's own form that names the option, the value
+and the range (:class:`Number`). Rules that need more than a range (a tolerance in um, a
+bound from the machine profile) are the command's or the library's to say
+(:mod:`postproc.machine.bounds`), with the message that names the rule.
 
 Outputs: :func:`guard` refuses, before anything is read or written, an output (``-o``, a plot,
 a report, the ``--log`` file) that is one of the command's inputs.
@@ -17,7 +20,7 @@ import sys
 
 import click
 
-from ..diagnostics import EXIT_BAD_INPUT, UsageError, format_message
+from ..diagnostics import EXIT_BAD_INPUT, UsageError, format_message, out_of_range
 from ..files.output import refuse_overwrite
 
 LOG = "postproc.log"  #: the click context's meta key of the ``--log`` file
@@ -33,33 +36,51 @@ class BadValue(click.ClickException):
         click.echo(format_message("error", self.message, None), file=file, err=file is None)
 
 
-class Finite(click.ParamType):
-    """A finite number (a float); with ``positive``, above zero as well."""
+class Number(click.ParamType):
+    """A finite number (a float), or with ``whole`` a whole number, within its range (``above``,
+    ``at_least``, ``at_most``): anything else is refused as it is read, naming the option, the
+    value and the range (:func:`~postproc.diagnostics.out_of_range`), exit 3. One type for
+    every number a command takes, so that ``--averaging 0`` and ``--max-deviation 0`` are
+    refused alike (click's own ``IntRange`` and ``int`` are usage errors, exit 2)."""
 
-    name = "number"
-
-    def __init__(self, positive: bool = False):
-        self.positive = positive
+    def __init__(self, whole: bool = False, above: float | None = None, at_least: float | None = None,
+                 at_most: float | None = None):
+        self.whole = whole
+        self.range = {"above": above, "at_least": at_least, "at_most": at_most}
+        self.name = "integer" if whole else "number"
 
     def convert(self, value, param, ctx):
-        if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
-            number = float(value)
+        option = max(param.opts, key=len) if param is not None and param.opts else "value"
+        if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and not (
+                self.whole and value != int(value)):
+            number = int(value) if self.whole else float(value)
+        elif self.whole:
+            try:
+                number = int(str(value).strip())
+            except ValueError:
+                raise BadValue(f"{option} {value}: not a whole number") from None
         else:
-            option = max(param.opts, key=len) if param is not None and param.opts else "value"
             try:
                 number = float(value)
             except (TypeError, ValueError):
                 raise BadValue(f"{option} {value}: not a number") from None
             if not math.isfinite(number):
                 raise BadValue(f"{option} {value}: not a finite number")
-        if self.positive and not number > 0:
-            option = max(param.opts, key=len) if param is not None and param.opts else "value"
-            raise BadValue(f"{option} {value}: must be positive")
+        problem = out_of_range(number, self.whole, **self.range)
+        if problem:
+            raise BadValue(f"{option} {value}: {problem}")
         return number
 
 
-FINITE = Finite()
-POSITIVE = Finite(positive=True)
+FINITE = Number()
+POSITIVE = Number(above=0)
+NOT_NEGATIVE = Number(at_least=0)
+COUNT = Number(whole=True, at_least=1)  #: a count of things, or a source line number
+SEED = Number(whole=True, at_least=0)  #: a random generator's seed
+PROGRAM_NUMBER = Number(whole=True)  #: a FANUC program number: its range, 1 to 9999, the probing cycle says
+POINTS = Number(whole=True, at_least=2)  #: points along a profile: both its ends at least
+ARC = Number(above=0, at_most=360)  #: an arc captured, degrees
+OVERTRAVEL = Number(at_least=0, at_most=180)  #: a ballbar test's over-travel, degrees
 
 
 def guard(inputs, outputs) -> None:
@@ -154,12 +175,12 @@ CALIBRATION = _shared("--calibration", metavar="FILE",
 MODEL = _shared("--model", metavar="FILE", help="A compensation model saved by 'postproc fit'.")
 OPTION = _shared("--option", "options", multiple=True, metavar="[PLUGIN.]KEY=VALUE", shell_complete=complete_options,
                  help="A compensator's setting (docs/formats.md §9); PLUGIN. when several take KEY.")
-TOLERANCE = _shared("--tolerance", type=FINITE, metavar="MM",
+TOLERANCE = _shared("--tolerance", type=POSITIVE, metavar="MM",
                     help="Largest deviation of the emitted path from the corrected one, mm (0.002 is 2 um).")
 MODE = _shared("--mode", type=click.Choice(["auto", "arc", "line"]), default="auto", show_default=True,
                help="auto: the fewest blocks, arcs or lines; arc: arcs wherever the target is curved; line: G01 only.")
-FROM_LINE = _shared("--from-line", type=int, metavar="N", help="Profile: moves from this source line.")
-TO_LINE = _shared("--to-line", type=int, metavar="N", help="Profile: moves up to this source line.")
+FROM_LINE = _shared("--from-line", type=COUNT, metavar="N", help="Profile: moves from this source line.")
+TO_LINE = _shared("--to-line", type=COUNT, metavar="N", help="Profile: moves up to this source line.")
 
 
 def examples(*lines: str) -> str:

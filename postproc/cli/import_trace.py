@@ -25,11 +25,11 @@ from dataclasses import dataclass
 import click
 import numpy as np
 
-from ..diagnostics import Location, MeasurementError, Reporter, UsageError
+from ..diagnostics import Location, MeasurementError, OptionError, Reporter, UsageError
 from ..measure.readers.ballbar import MAGIC, REPEATED, make_trace, open_ends, raw_samples, repeated_angle
 from ..measure.readers.csvfile import read_text
 from ..files.output import STDOUT, write_atomically
-from .common import FINITE, examples, guard
+from .common import ARC, FINITE, POSITIVE, examples, guard
 
 DELIMITERS = {"comma": ",", "semicolon": ";", "tab": "\t", "space": None}
 #: um; a trace in um whose largest deviation is below this (a ballbar's resolution) is in mm
@@ -52,15 +52,15 @@ class Table:
     "# raw deviations in time order, a lathe's 220 deg arc from 200 deg",
     "postproc import-trace raw.txt --radius 100 --direction cw --start-angle 200 --capture-arc 220 -o cw.csv"))
 @click.argument("file", metavar="FILE")
-@click.option("--radius", type=FINITE, required=True, metavar="MM", help="Nominal bar length.")
+@click.option("--radius", type=POSITIVE, required=True, metavar="MM", help="Nominal bar length.")
 @click.option("--direction", type=click.Choice(["ccw", "cw"]), required=True,
               help="ccw: the G03 run (theta decreasing); cw: the G02 run (theta increasing).")
 @click.option("--center-x", type=FINITE, default=0.0, show_default=True, metavar="MM", help="Test centre x (radius mm).")
 @click.option("--center-z", type=FINITE, default=0.0, show_default=True, metavar="MM", help="Test centre z.")
-@click.option("--feed", type=FINITE, metavar="MM/MIN", help="The test's feed (for the servo lag).")
+@click.option("--feed", type=POSITIVE, metavar="MM/MIN", help="The test's feed (for the servo lag).")
 @click.option("--start-angle", type=FINITE, metavar="DEG",
               help="Raw deviations (no angle column): theta of the first reading.")
-@click.option("--capture-arc", type=FINITE, metavar="DEG", help="Raw deviations: the arc captured (default 360).")
+@click.option("--capture-arc", type=ARC, metavar="DEG", help="Raw deviations: the arc captured (default 360).")
 @click.option("--columns", metavar="ANGLE,DEVIATION|DEVIATION",
               help="Which columns hold the angle and the deviation (1-based numbers or header names); "
                    "required when the rows have more cells than that.")
@@ -77,20 +77,11 @@ class Table:
 def command(file, radius, direction, center_x, center_z, feed, start_angle, capture_arc, columns, delimiter,
             decimal_comma, unit, angle_offset, reverse_angles, centered, output):
     """A plain CSV/TSV export of a ballbar test (angle and deviation, or raw deviations) to a postproc trace."""
-    for name, value in (("--radius", radius), ("--feed", feed), ("--capture-arc", capture_arc)):
-        if value is not None and not (math.isfinite(value) and value > 0):
-            raise UsageError(f"{name} {value:g}: must be a positive number")
-    for name, value in (("--center-x", center_x), ("--center-z", center_z), ("--start-angle", start_angle),
-                        ("--angle-offset", angle_offset)):
-        if value is not None and not math.isfinite(value):
-            raise UsageError(f"{name}: must be a finite number")
     from ..measure.parameters import bar_length_problem
 
     problem = bar_length_problem(radius)
     if problem:
-        raise UsageError(f"--radius {radius:g}: {problem}")
-    if capture_arc is not None and capture_arc > 360.0:
-        raise UsageError(f"--capture-arc {capture_arc:g}: at most 360")
+        raise OptionError(f"--radius {radius:g}: {problem}")
     if capture_arc is not None and start_angle is None:
         raise UsageError("--capture-arc belongs to raw deviations: give --start-angle as well")
     if decimal_comma and delimiter == "comma":

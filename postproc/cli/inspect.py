@@ -36,7 +36,7 @@ from ..compensate.registry import readers
 from ..measure.pretravel import fit_calibration
 from ..measure.probing import FORCE_FLAG, ProbedProfile, probe_profile
 from ..machine.profile import DEFAULT, load
-from .common import CALIBRATION, FINITE, FROM_LINE, MACHINE, TO_LINE, examples, guard
+from .common import CALIBRATION, POSITIVE, FROM_LINE, MACHINE, TO_LINE, examples, guard
 
 EXIT_RECUT = EXIT_WOULD_CHANGE  #: as ``--check``: the part would change if the loop goes on
 IN_TOLERANCE, RECUT = "in tolerance", "re-cut with compensation"
@@ -65,7 +65,7 @@ def compensate_command(program: str, probe: str, calibration: str | None, machin
 @click.argument("program", default="-")
 @click.option("--probe", "probe_path", required=True, metavar="FILE", help="Probe points measured on the part.")
 @CALIBRATION()
-@click.option("--band", type=FINITE, required=True, metavar="MM",
+@click.option("--band", type=POSITIVE, required=True, metavar="MM",
               help="Tolerance: every cleaned deviation must lie within +-MM.")
 @FROM_LINE()
 @TO_LINE()

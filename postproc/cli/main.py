@@ -18,7 +18,7 @@ import click
 from .. import __version__
 from ..compensate import progress
 from ..machine import profile as profiles
-from .common import (BALLBAR, CALIBRATION, FINITE, LOG, MACHINE, MODE, MODEL, OPTION, PLUGIN, PROBE, PROJECT,
+from .common import (BALLBAR, CALIBRATION, COUNT, LOG, MACHINE, MODE, MODEL, OPTION, PLUGIN, POSITIVE, PROBE, PROJECT,
                      TOLERANCE, examples, guard)
 from ..diagnostics import (EXIT_INTERNAL, EXIT_WOULD_CHANGE, Location, OptionError, OutputError, PostprocError,
                            Reporter, Stopped, UsageError, format_message)
@@ -358,7 +358,7 @@ def _catch(ctx: click.Context, signum: int) -> None:
 @OPTION()
 @click.option("--region", "regions", multiple=True, metavar="N100-N200|L10-L50|T01",
               help="Compensate only these blocks: N100-N200, L10-L50 (L10: line 10 alone) or a tool; several: their union.")
-@click.option("--max-correction", type=FINITE, metavar="MM", help="Refuse corrections larger than this.")
+@click.option("--max-correction", type=POSITIVE, metavar="MM", help="Refuse corrections larger than this.")
 @click.option("--force", is_flag=True, help="Compensate a program compensated before; use a failed datum check.")
 @click.option("--keep-unplannable", is_flag=True,
               help="Leave a block that cannot be held within the tolerance uncompensated (a warning) instead of refusing.")
@@ -367,7 +367,7 @@ def _catch(ctx: click.Context, signum: int) -> None:
                    "block uncompensated, or write its values as numbers (it no longer follows the variable).")
 @click.option("--diff", is_flag=True, help="Write a unified diff of the change to stdout instead of the program.")
 @click.option("--check", "check_only", is_flag=True, help="Write nothing; exit 1 if the program would change.")
-@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True, metavar="N",
+@click.option("--jobs", type=COUNT, default=1, show_default=True, metavar="N",
               help="Programs compensated at once (with --out-dir).")
 @click.option("--report", "report_file", metavar="FILE", help="Write what each compensator fitted, and how well, as JSON.")
 @_reported
@@ -515,8 +515,8 @@ def _destinations(inputs: tuple[str, ...], out_dir: str) -> list[tuple[str, str]
 def _workers(jobs: int, programs: int) -> int:
     """``--jobs``, at most one process per program and per CPU (saying so when fewer run)."""
     if jobs > MAX_JOBS:
-        raise UsageError(f"--jobs {jobs}: far more processes than a machine runs at once (at most {MAX_JOBS}); "
-                         "give about the number of CPUs")
+        raise OptionError(f"--jobs {jobs}: far more processes than a machine runs at once (at most {MAX_JOBS}); "
+                           "give about the number of CPUs")
     try:
         cpus = len(os.sched_getaffinity(0))
     except (AttributeError, OSError):

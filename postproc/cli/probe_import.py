@@ -10,17 +10,16 @@ with its line number (exit 3) and nothing is written.
 
 from __future__ import annotations
 
-import math
 import os
 import sys
 
 import click
 
 from ..compensate import progress
-from ..diagnostics import OptionError, Reporter
+from ..diagnostics import Reporter
 from ..files.output import STDOUT, write_atomically
 from ..onmachine.probe_printout import probe_data, probe_file_text, read_printout
-from .common import FINITE, examples, guard
+from .common import POSITIVE, examples, guard
 
 
 @click.command("probe-import", epilog=examples(
@@ -28,16 +27,13 @@ from .common import FINITE, examples, guard
     "postproc probe-import o8100-printout.txt -o pass1.csv",
     "postproc probe-import o8100-printout.txt --stylus-radius 3 -o pass1.csv"))
 @click.argument("printout")
-@click.option("--stylus-radius", type=FINITE, metavar="MM",
+@click.option("--stylus-radius", type=POSITIVE, metavar="MM",
               help="The stylus radius the probe file names (default: the one the program was written for).")
-@click.option("--repeatability", type=FINITE, default=0.003, show_default=True, metavar="MM",
+@click.option("--repeatability", type=POSITIVE, default=0.003, show_default=True, metavar="MM",
               help="The machine's repeatability: the datum check's limit (docs/methods.md §1: X +-0.003 mm).")
 @click.option("-o", "--output", "output", default=STDOUT, metavar="FILE", help="Write the probe file here.")
 def command(printout, stylus_radius, repeatability, output):
     """Turn the DPRNT printout of a postproc probing program into a probe file."""
-    for name, value in (("--stylus-radius", stylus_radius), ("--repeatability", repeatability)):
-        if value is not None and not (math.isfinite(value) and value > 0):
-            raise OptionError(f"{name} {value:g}: must be positive")
     guard([("PRINTOUT", printout)], [("-o", output)])
     reporter = Reporter(sys.stderr)
     run = read_printout(printout)

@@ -24,7 +24,7 @@ from ..measure.nominal import MATERIAL, nominal, read_program
 from ..files.output import STDOUT, write_atomically
 from ..onmachine.probe_cycle import DATUM_SURFACES, Cycle, code_digits, plan, self_check
 from ..machine.profile import DEFAULT, load
-from .common import FINITE, FROM_LINE, MACHINE, TO_LINE, examples, guard
+from .common import COUNT, FINITE, FROM_LINE, MACHINE, NOT_NEGATIVE, POSITIVE, PROGRAM_NUMBER, TO_LINE, examples, guard
 
 DEFAULTS = Cycle()
 _PROGRAM_OPTIONS = (
@@ -33,7 +33,7 @@ _PROGRAM_OPTIONS = (
                                                    "with the tool change); needs --probe-off."),
     click.option("--probe-off", metavar="MNN", help="M code that switches the probe off (none: the probe does, e.g. "
                                                     "on a timer); needs --probe-on."),
-    click.option("--program-number", type=int, default=DEFAULTS.program_number, show_default=True, metavar="N",
+    click.option("--program-number", type=PROGRAM_NUMBER, default=DEFAULTS.program_number, show_default=True, metavar="N",
                  help="The O number of the probing program written."),
     MACHINE(help="A machine profile (TOML): G-code system, diameter mode, limits; without it, the embedded default."),
     click.option("-o", "--output", "output", default=STDOUT, metavar="FILE", help="Write the program here."),
@@ -54,9 +54,9 @@ def program_options(command):
     "# one profile of the program, with a datum on the face",
     "postproc probe-program part.nc --from-line 20 --to-line 48 --datum-x 20 --datum-z 0 -o O8100.nc"))
 @click.argument("program", default="-")
-@click.option("--points", type=int, default=DEFAULTS.points, show_default=True, metavar="N",
+@click.option("--points", type=COUNT, default=DEFAULTS.points, show_default=True, metavar="N",
               help="Touches in all, spread over the profile's features.")
-@click.option("--per-feature", type=int, default=DEFAULTS.per_feature, show_default=True, metavar="N",
+@click.option("--per-feature", type=COUNT, default=DEFAULTS.per_feature, show_default=True, metavar="N",
               help="The fewest touches on each feature (line or arc) with room for them: what omp-feedback and "
                    "tool-offset need to screen a feature.")
 @FROM_LINE()
@@ -64,18 +64,18 @@ def program_options(command):
 @click.option("--material", type=click.Choice(MATERIAL), default="axis", show_default=True,
               help="Which side of the profile is material: towards the spindle axis, or left/right of the "
                    "direction of travel.")
-@click.option("--inset", type=FINITE, default=DEFAULTS.inset, show_default=True, metavar="MM",
+@click.option("--inset", type=NOT_NEGATIVE, default=DEFAULTS.inset, show_default=True, metavar="MM",
               help="Keep the touches this far (along the profile) from both ends of every feature; more at a concave "
                    "corner, as the stylus needs.")
-@click.option("--stylus-radius", type=FINITE, default=DEFAULTS.stylus_radius, show_default=True, metavar="MM",
+@click.option("--stylus-radius", type=POSITIVE, default=DEFAULTS.stylus_radius, show_default=True, metavar="MM",
               help="The stylus ball's radius: the touch points are offset by it along the normals.")
-@click.option("--clearance", type=FINITE, default=DEFAULTS.clearance, show_default=True, metavar="MM",
+@click.option("--clearance", type=POSITIVE, default=DEFAULTS.clearance, show_default=True, metavar="MM",
               help="Each approach starts this far from the nominal surface.")
-@click.option("--overtravel", type=FINITE, metavar="MM",
+@click.option("--overtravel", type=POSITIVE, metavar="MM",
               help="How far beyond the nominal surface the skip move aims (default: the clearance).")
-@click.option("--feed", type=FINITE, default=DEFAULTS.feed, show_default=True, metavar="MM/MIN",
+@click.option("--feed", type=POSITIVE, default=DEFAULTS.feed, show_default=True, metavar="MM/MIN",
               help="Probing feed of the skip moves (calibrate at the same feed).")
-@click.option("--travel-feed", type=FINITE, default=DEFAULTS.travel_feed, show_default=True, metavar="MM/MIN",
+@click.option("--travel-feed", type=POSITIVE, default=DEFAULTS.travel_feed, show_default=True, metavar="MM/MIN",
               help="Feed of the moves near the part.")
 @click.option("--datum-x", type=FINITE, metavar="MM", help="Datum point x (radius), with --datum-z.")
 @click.option("--datum-z", type=FINITE, metavar="MM", help="Datum point z, with --datum-x.")

@@ -16,14 +16,14 @@ import sys
 
 import click
 
-from ..diagnostics import OptionError, Reporter, UsageError
+from ..diagnostics import Reporter, UsageError
 from ..measure.features import MIN_TOUCHES
 from ..measure.nominal import MATERIAL
 from ..files.output import STDOUT, write_atomically
 from ..simulator import ballbar_test, calibrate, cut, generator, inspect, load, nominal, probe_profile, program_test
 from ..simulator.files import calibration_text, cmm_probe_text, probe_text, read_surface, surface_text, trace_text
 from ..simulator.nominal import run_program
-from .common import FINITE, FROM_LINE, MACHINE, TO_LINE, examples, guard
+from .common import ARC, COUNT, FINITE, FROM_LINE, MACHINE, NOT_NEGATIVE, OVERTRAVEL, POINTS, POSITIVE, SEED, TO_LINE, examples, guard
 
 
 def check_table(profile, origin: str) -> None:
@@ -39,7 +39,7 @@ def _machine(function):
 
 
 def _seed(function):
-    return click.option("--seed", type=int, metavar="N", help="Seed of the noise (default: the table's seed).")(function)
+    return click.option("--seed", type=SEED, metavar="N", help="Seed of the noise (default: the table's seed).")(function)
 
 
 def _output(function):
@@ -63,12 +63,6 @@ def _provenance(command: str, machine: str | None, seed: int | None = None, prog
     if program is not None:
         facts["program"] = program
     return facts
-
-
-def _count(points: int | None) -> int | None:
-    if points is not None and points < 2:
-        raise OptionError(f"--points {points}: at least 2 points are needed")
-    return points
 
 
 def _setup(machine, program, from_line, to_line, material):
@@ -103,14 +97,14 @@ def command() -> None:
               help="ccw: the G03 run (theta decreasing); cw: the G02 run.")
 @click.option("--form", type=click.Choice(["processed", "raw"]), default="processed", show_default=True,
               help="processed: angle and deviation (docs/formats.md §4); raw: the instrument's readings in time order.")
-@click.option("--radius", type=FINITE, metavar="MM", help="Test radius (default: the table's).")
+@click.option("--radius", type=POSITIVE, metavar="MM", help="Test radius (default: the table's).")
 @click.option("--center-x", type=FINITE, metavar="MM", help="Test centre x (radius mm).")
 @click.option("--center-z", type=FINITE, metavar="MM", help="Test centre z.")
-@click.option("--feed", type=FINITE, metavar="MM/MIN", help="Feed (default: the table's).")
+@click.option("--feed", type=POSITIVE, metavar="MM/MIN", help="Feed (default: the table's).")
 @click.option("--start-angle", type=FINITE, metavar="DEG", help="theta of the first captured sample (default: the table's).")
-@click.option("--capture-arc", type=FINITE, metavar="DEG",
+@click.option("--capture-arc", type=ARC, metavar="DEG",
               help="The arc captured (default: the table's, 360; a lathe's XZ test: about 220).")
-@click.option("--overtravel", type=FINITE, metavar="DEG",
+@click.option("--overtravel", type=OVERTRAVEL, metavar="DEG",
               help="Arc run before and after the capture (default: the table's, 180; a partial arc: a few).")
 @click.option("--program", metavar="FILE",
               help="Run the bar along this program's feed moves on the test circle (a test program, compensated or "
@@ -127,8 +121,6 @@ def ballbar(machine, seed, direction, form, radius, center_x, center_z, feed, st
     guard([("--machine", machine), ("--program", program)], [("-o", output)])
     simulation, profile = load(machine)
     seed = simulation.seed if seed is None else seed
-    if radius is not None and not radius > 0:
-        raise OptionError(f"--radius {radius:g}: the radius must be positive")
     if program is not None:
         run = _program_ballbar(simulation, profile, program, seed, form, radius, center_x, center_z, feed, start_angle,
                                capture_arc, overtravel, direction)
@@ -187,11 +179,11 @@ def cut_command(program, from_line, to_line, material, machine, output):
     "postproc simulate probe samples/programs/hemishell.nc --from-line 10 --to-line 10 --machine samples/machines/v40r-sim.toml --surface surface.csv -o pass1.csv"))
 @_profile_options
 @click.option("--surface", metavar="FILE", help="The surface to probe (from 'simulate cut'); default: cut it now.")
-@click.option("--points", type=int, metavar="N", help="Touches along the profile (default: the table's).")
-@click.option("--inset", type=FINITE, metavar="MM",
+@click.option("--points", type=POINTS, metavar="N", help="Touches along the profile (default: the table's).")
+@click.option("--inset", type=NOT_NEGATIVE, metavar="MM",
               help="Spread the touches over the profile's features as probe-program does, this far from each "
                    "feature's ends (default: evenly along the whole profile, both ends included).")
-@click.option("--per-feature", type=int, default=MIN_TOUCHES, show_default=True, metavar="N",
+@click.option("--per-feature", type=COUNT, default=MIN_TOUCHES, show_default=True, metavar="N",
               help="With --inset: the fewest touches on each feature.")
 @_machine
 @_seed
@@ -199,10 +191,6 @@ def cut_command(program, from_line, to_line, material, machine, output):
 def probe(program, from_line, to_line, material, surface, points, inset, per_feature, machine, seed, output):
     """A probe file: touches spread along the profile, the datum before and after."""
     guard([("PROGRAM", program), ("--surface", surface), ("--machine", machine)], [("-o", output)])
-    points = _count(points)
-    if inset is not None and not (inset >= 0 and per_feature >= 1):
-        raise OptionError(f"--inset {inset:g} --per-feature {per_feature}: the inset must not be negative and each "
-                          "feature needs a touch at least")
     simulation, name, moves, profile_of, wear = _setup(machine, program, from_line, to_line, material)
     seed = simulation.seed if seed is None else seed
     run = probe_profile(_surface(surface, simulation, moves, profile_of, wear), profile_of, simulation,
@@ -215,19 +203,16 @@ def probe(program, from_line, to_line, material, surface, points, inset, per_fea
     "postproc simulate calibrate --machine samples/machines/v40r-sim.toml --step-deg 10 --seed 7 -o artifact.csv"))
 @_machine
 @_seed
-@click.option("--radius", type=FINITE, metavar="MM", help="Artifact radius (default: the table's).")
+@click.option("--radius", type=POSITIVE, metavar="MM", help="Artifact radius (default: the table's).")
 @click.option("--center-x", type=FINITE, metavar="MM", help="Artifact centre x (radius mm).")
 @click.option("--center-z", type=FINITE, metavar="MM", help="Artifact centre z.")
-@click.option("--step-deg", type=FINITE, metavar="DEG", help="Angle between touches (default: the table's).")
+@click.option("--step-deg", type=POSITIVE, metavar="DEG", help="Angle between touches (default: the table's).")
 @_output
 def calibrate_command(machine, seed, radius, center_x, center_z, step_deg, output):
     """A probe calibration on the sphere artifact: touches over its top 180 deg."""
     guard([("--machine", machine)], [("-o", output)])
     simulation, _ = load(machine)
     seed = simulation.seed if seed is None else seed
-    for name, value in (("--radius", radius), ("--step-deg", step_deg)):
-        if value is not None and not value > 0:
-            raise OptionError(f"{name} {value:g}: must be positive")
     changes = {key: value for key, value in (("radius_mm", radius), ("center_x_mm", center_x),
                                              ("center_z_mm", center_z), ("step_deg", step_deg)) if value is not None}
     artifact = dataclasses.replace(simulation.artifact, **changes)
@@ -241,9 +226,9 @@ def calibrate_command(machine, seed, radius, center_x, center_z, step_deg, outpu
     "postproc simulate inspect samples/programs/hemishell.nc --surface surface.csv --json"))
 @_profile_options
 @click.option("--surface", metavar="FILE", help="The surface to inspect (from 'simulate cut'); default: cut it now.")
-@click.option("--points", type=int, metavar="N", help="Points along the profile (default: the table's).")
+@click.option("--points", type=POINTS, metavar="N", help="Points along the profile (default: the table's).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of the figures.")
-@click.option("--inset", type=float, metavar="MM",
+@click.option("--inset", type=NOT_NEGATIVE, metavar="MM",
               help="Spread the points over the profile's features, this far from each feature's ends, as "
                    "'simulate probe --inset' does (default: evenly along the whole profile, both ends included).")
 @click.option("--probe-file", metavar="FILE",
@@ -253,9 +238,6 @@ def calibrate_command(machine, seed, radius, center_x, center_z, step_deg, outpu
 @_seed
 def inspect_command(program, from_line, to_line, material, surface, points, as_json, inset, probe_file, machine, seed):
     """A virtual CMM: deviations from the nominal profile along its normal, and the four figures."""
-    points = _count(points)
-    if inset is not None and not inset >= 0:
-        raise OptionError(f"--inset {inset:g}: the inset must not be negative")
     simulation, name, moves, profile_of, wear = _setup(machine, program, from_line, to_line, material)
     seed = simulation.seed if seed is None else seed
     result = inspect(_surface(surface, simulation, moves, profile_of, wear), profile_of, simulation,

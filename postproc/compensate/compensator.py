@@ -18,7 +18,7 @@ from typing import Any, ClassVar, Iterable, Sequence
 
 import numpy as np
 
-from ..diagnostics import Location, ModelError, OptionError, Reporter, SafetyError
+from ..diagnostics import Location, ModelError, OptionError, Reporter, SafetyError, out_of_range
 from ..geometry import Arc, Line
 from ..interpret.motion import Move
 from ..machine.profile import DEFAULT, MachineProfile
@@ -88,14 +88,16 @@ class Option:
             if value in ("false", "no", "0", "off"):
                 return False
             raise OptionError(f"{where}: expected true or false")
-        if self.kind in (float, int):
+        if self.kind in (float, int):  # refused as the command line's own numbers are (cli/common.py)
+            whole = self.kind is int
             try:
                 value = self.kind(text)
             except ValueError:
-                raise OptionError(f"{where}: expected a number") from None
-            if not math.isfinite(value) or (self.positive and value <= 0):
-                raise OptionError(f"{where}: expected a {'positive ' if self.positive else ''}finite number")
-            problem = self._too_large(value)
+                raise OptionError(f"{where}: not a {'whole ' if whole else ''}number") from None
+            if not math.isfinite(value):
+                raise OptionError(f"{where}: not a finite number")
+            problem = (out_of_range(value, whole, **({"at_least": 1} if whole else {"above": 0})) if self.positive
+                       else None) or self._too_large(value)
             if problem:
                 raise OptionError(f"{where}: {problem}")
             return value

@@ -102,15 +102,14 @@ class Joining:
             return
         edit.lead_in = self._connector((move.x0, move.z0), edit.start, entry.step)
 
-    def _back_to_nominal(self, previous: Entry, before: Step | None = None) -> None:
+    def _back_to_nominal(self, previous: Entry, before: Step) -> None:
         """The tool goes back to the nominal end of ``previous`` before a block that names the
         coordinates of where it stands (G50 X/Z, G92 in systems B and C, a preset: named at the
         corrected end, the frame would carry that correction, a constant shift of every block
         after it) or that calls or returns (the program it passes to was written for the
         nominal end). Nothing is joined across such a block. ``before``: that block, for the
-        refusal of a join under G41/G42; None: a long stretch without motion. After a cycle's
-        contour the tool stands at the cycle's start point, not at the contour's end: nothing
-        goes back."""
+        refusal of a join under G41/G42. After a cycle's contour the tool stands at the cycle's
+        start point, not at the contour's end: nothing goes back."""
         last = last_along(previous)
         if last is None:
             return
@@ -121,10 +120,8 @@ class Joining:
                                              self._before(before))
 
     @staticmethod
-    def _before(block_step: Step | None) -> str:
+    def _before(block_step: Step) -> str:
         """Why a move goes back to its nominal end, as a refusal under G41/G42 says it."""
-        if block_step is None:
-            return " (back to the programmed end before a long stretch of blocks that move nothing)"
         what = "which names where the tool stands" if block_step.names_position else "which calls or returns"
         return f" (back to the programmed end before line {block_step.block.line}, {what})"
 

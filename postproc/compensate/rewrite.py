@@ -3,9 +3,10 @@
 The rewriter streams the interpreted steps in batches (a bounded look-ahead): the pieces of
 a batch's moves are corrected in one call, then the steps go through a window of one motion
 step and the non-motion steps after it. When the next motion step arrives, the join between
-the two is settled, then the window is written out (past WINDOW non-motion steps the motion
-step goes back to its nominal end and the window is written at once, so that memory stays
-flat):
+the two is settled, then the window is written out (past WINDOW non-motion steps, the text
+of those that rely on nothing the join decides goes to a temporary file, :mod:`.stretch`, so
+that memory stays flat however long the stretch, and the join waits for the next move all
+the same):
 
 - a move whose start moved (its correction is not zero there) gets the previous move's
   end point moved to meet it when that move is a plain line or rapid (as the source's
@@ -55,14 +56,16 @@ from .planning import Planning
 from .request import Request
 from .segmenter import Limits
 from .self_check import AT_NOMINAL, SelfCheck
+from .stretch import SAME, Spool, Stretch
 from .writing import Writing
 
 __all__ = ["BATCH", "Corrector", "Edit", "Entry", "KEEP", "MACRO_VALUES", "NAMED", "NUMBERS", "Piece", "REFUSE",
            "Rewriter", "STEPS", "WINDOW", "macro_word", "pieces", "sample_lines", "travel_after", "_travel", "_turns"]
 
 BATCH = 256  #: steps read ahead so that their pieces are corrected in one call
-#: Non-motion steps held behind a motion step, at most, before its join is settled without the
-#: next move (the tool back to the nominal end): memory stays flat however long the stretch
+#: Non-motion steps held in memory behind a motion step, at most, before the text of those that
+#: rely on nothing its join decides goes to the spool (:mod:`.stretch`): memory stays flat
+#: however long the stretch, and the join still waits for the next move
 WINDOW = 4096
 
 
@@ -111,9 +114,10 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
         self.held: list[tuple[int, float]] = []  #: (line, mm off the corrected path) of each block a cycle's one-way rule held
         self._one_way: _OneWay | None = None  # the G71/G72 contour being written, and its rule
         self._pending: list[Entry] | None = None  # a G71/G72 contour's entries, held until its last block is read
-        self._window: list[Entry] = []  # the last motion step and the steps after it, not yet written
+        self._window: list[Entry | Stretch] = []  # the last motion step and the steps after it, not yet written
+        self._spool = Spool(file)  # the text of the window's stretches
+        self._spilled = 0  # the window's first items that the spool has been offered
         self._previous: Entry | None = None  # the last motion step
-        self._settled: Entry | None = None  # the last motion step, written, ending at its nominal end
         self._last_travel: tuple[int, int] = (0, 0)  # direction each axis last travelled in
         self._checker: Interpreter | None = None  # reads replacements back (the self-check)
         #: where the blocks written so far leave the tool, for the self-check: the last motion step's last move
@@ -130,7 +134,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
     # ------------------------------------------------------------------ streaming
 
     def run(self) -> Iterator[str]:
-        self._window, self._previous, self._pending, self._settled = [], None, None, None
+        self._window, self._previous, self._pending, self._spilled = [], None, None, 0
         self._tool = AT_NOMINAL
         self.mode_now = self.original_mode = self.known_mode = None
         others = bool(self._others)
@@ -149,16 +153,25 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
                         yield from self._release()
                 elif entry.refusal is None and not entry.motion and not _restarts(step):
                     self._window.append(entry)
-                    if len(self._window) - (self._previous is not None) > WINDOW and self._settles_early(self._previous):
-                        yield from self._flush(self._settle_window())
+                    if len(self._window) - self._spilled > WINDOW:
+                        if self._previous is None:  # no join waits: written now
+                            window, self._window, self._spilled = self._window, [], 0
+                            yield from self._flush(window)
+                        else:
+                            self._spill()
                 else:
-                    for waiting in self._take(entry):  # each written as its lines are asked for
-                        yield from write(waiting)
+                    window = self._take(entry)
+                    if self._spool.used:
+                        yield from self._flush(window)
+                    else:
+                        for waiting in window:  # each written as its lines are asked for
+                            yield from write(waiting)
         if self._pending is not None:
             yield from self._release()
         if self._previous is not None:
             self._join(self._previous, None)
         yield from self._flush(self._window)
+        self._spool.close()
         if len(self.macro_lines) > NAMED:
             done = ("left uncompensated" if self.request.macro_values == KEEP
                     else "written with their macro values as numbers")
@@ -199,7 +212,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
             if _restarts(entry.step):
                 if self._previous is not None:  # the frame it names, the program it calls, are the program's
                     self._back_to_nominal(self._previous, entry.step)
-                self._previous = self._settled = None
+                self._previous = None
             self._window.append(entry)
             return []
         if entry.edited:
@@ -208,42 +221,39 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
                 self._hold_plans(entry)
         if self._previous is not None:
             self._join(self._previous, entry)
-        elif self._settled is not None:
-            self._join(self._settled, entry)
         else:
             self._from_nominal_start(entry)
-        window, self._window, self._previous, self._settled = self._window, [entry], entry, None
+        window, self._window, self._previous, self._spilled = self._window, [entry], entry, 0
         return window
 
-    def _settles_early(self, previous: Entry | None) -> bool:
-        """Whether the window's join may be settled before the next move is read: with no
-        motion step in it, or after a cycle's contour (the tool stands at the cycle's start
-        point: nothing joins its end); otherwise only for a move whose end may go back to
-        nominal with a connecting G01: not a corner the control rounds with the next move, a
-        move under G41/G42 (such a join is refused), or a move on a machine with other axes (the
-        next block may move one, and a lead-in would split it): those hold their stretch whole."""
-        if previous is None or previous.step.in_contour or previous.step.contour_end:
-            return True
-        return not (self._others or self._has_corner(previous.step.block) or self._under_nose_offset(previous.step))
-
-    def _settle_window(self) -> list[Entry]:
-        """The window, to be written now: its motion step goes back to its nominal end (as
-        before a block that names the position), and the next move is joined from there as if
-        from a move left as it was."""
-        previous = self._previous
-        if previous is not None:
-            self._back_to_nominal(previous)
-            self._settled = Entry(previous.step, [None] * len(previous.step.moves), kept=True)
-            self._previous = None
-        window, self._window = self._window, []
-        return window
+    def _spill(self) -> None:
+        """The window past WINDOW steps: the text of each step after its motion step that is
+        written as it was read whatever the join decides (one that moves nothing, relies on no
+        motion mode and is no block of a cycle's contour) goes to the spool, with what writing
+        it does to the motion modes; any other stays in the window, in its place. Each step is
+        offered once: the window's first ``_spilled`` items have been."""
+        window = self._window
+        start = max(self._spilled, 1)
+        kept: list[Entry | Stretch] = window[:start]
+        stretch = kept[-1] if type(kept[-1]) is Stretch else None
+        spool = self._spool
+        for item in window[start:]:
+            if not item.step.in_contour and not (words := self._motion_words(item.step.block))[1]:
+                if stretch is None:
+                    stretch = Stretch()
+                    kept.append(stretch)
+                spool.write(item.step.block.raw)
+                stretch.add(item.step.modal.motion, words[0])
+                continue
+            stretch = None  # a step that stays: the next stretch starts after it
+            kept.append(item)
+        self._window, self._spilled = kept, len(kept)
 
     def _release(self) -> Iterator[str]:
         entries, self._pending = self._pending, None
         self._one_way = self._settle_one_way(entries)
         for entry in entries:
-            for waiting in self._take(entry):
-                yield from self._write(waiting)
+            yield from self._flush(self._take(entry))
 
     def _corrected(self, steps: Iterable[Step]) -> Iterator[list[Entry]]:
         """The steps in batches of at most BATCH, each motion step with its edits: the pieces
@@ -318,6 +328,18 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
 
     # ------------------------------------------------------------------ writing out
 
-    def _flush(self, window: list[Entry]) -> Iterator[str]:
-        for entry in window:
-            yield from self._write(entry)
+    def _flush(self, window: list[Entry | Stretch]) -> Iterator[str]:
+        """A window written out, each stretch's text read back from the spool in its place."""
+        stretched = False
+        for item in window:
+            if type(item) is Stretch:
+                yield from self._spool.lines(item.blocks)
+                self.mode_now = item.after(self.mode_now)
+                self.original_mode = item.original
+                if item.known is not SAME:
+                    self.known_mode = item.known
+                stretched = True
+            else:
+                yield from self._write(item)
+        if stretched:
+            self._spool.empty()

@@ -36,17 +36,7 @@ class Writing:
             self.known_mode = step.modal.motion
         if not entry.edited and entry.retarget is None:
             fields = block.fields
-            if fields is not None:  # a canonical block: G00-G03 at most, read from its fields
-                sets_mode = fields[1] is not None
-                relies = not sets_mode and fields[2:6] != _NO_XZIK
-            else:
-                codes = [value for letter, value in block.codes if letter == "G"]
-                sets_mode = any(_group(value, self.profile.gcode_system) == G.MOTION for value in codes)
-                relies = (
-                    any(letter in "XZUWIK" for letter, _ in block.codes)
-                    and not sets_mode
-                    and not any(_group(value, self.profile.gcode_system) == G.ONE_SHOT for value in codes)
-                )
+            sets_mode, relies = self._motion_words(block)
             if relies and self.mode_now is not None:
                 wanted = step.modal.motion  # the mode the program as written runs this block in
                 if wanted is None:  # how the program reaches it decides: a jump's target, after an unknown code
@@ -97,6 +87,19 @@ class Writing:
         self.replaced += 1
         self.emitted += len(lines)
         return lines
+
+    def _motion_words(self, block: Block) -> tuple[bool, bool]:
+        """Whether the block's own G code sets the motion mode, and whether it relies on the
+        mode in force (it names an axis or arc word and no G code of its own that moves)."""
+        fields = block.fields
+        if fields is not None:  # a canonical block: G00-G03 at most, read from its fields
+            sets_mode = fields[1] is not None
+            return sets_mode, not sets_mode and fields[2:6] != _NO_XZIK
+        codes = [value for letter, value in block.codes if letter == "G"]
+        system = self.profile.gcode_system
+        sets_mode = any(_group(value, system) == G.MOTION for value in codes)
+        return sets_mode, (any(letter in "XZUWIK" for letter, _ in block.codes) and not sets_mode
+                           and not any(_group(value, system) == G.ONE_SHOT for value in codes))
 
     def _ends_a_cycle(self, block: Block) -> bool:
         """Whether the block's label is a G70-G73 cycle's Q anywhere in the program: the cycle

@@ -124,7 +124,6 @@ def test_bad_exports_are_refused_at_their_position_and_nothing_is_written(run, t
     ([], "has one column (raw deviations?): give --start-angle"),
     (["--columns", "3"], "--columns 3: give ANGLE,DEVIATION"),
     (["--start-angle", "0", "--columns", "dev"], "'dev' is neither a column number nor a header name"),
-    (["--capture-arc", "400", "--start-angle", "0"], "--capture-arc 400: at most 360"),
     (["--capture-arc", "220"], "--capture-arc belongs to raw deviations: give --start-angle as well"),
     (["--start-angle", "0", "--delimiter", "comma", "--decimal-comma"], "the delimiter cannot be a comma as well"),
 ])

@@ -198,8 +198,8 @@ def test_jobs_are_capped_at_the_programs_and_cpus_and_say_so(run, tmp_path):
     assert result.stderr.splitlines()[0] == (f"postproc: warning: --jobs 64: {runs} (2 programs, {cpus} "
                                              f"CPU{'s' * (cpus != 1)})")
     absurd = run("compensate", *map(str, programs), "--out-dir", str(tmp_path / "x"), "--jobs", "100000")
-    assert absurd.exit_code == 2 and not (tmp_path / "x").exists()
-    assert run("compensate", *map(str, programs), "--out-dir", str(tmp_path), "--jobs", "0").exit_code == 2
+    assert absurd.exit_code == 3 and not (tmp_path / "x").exists()  # a wrong option value
+    assert run("compensate", *map(str, programs), "--out-dir", str(tmp_path), "--jobs", "0").exit_code == 3
 
 
 EMPTY_WARNING = ("warning: the program has no blocks: nothing in it commands the control (empty, or only tape marks, "

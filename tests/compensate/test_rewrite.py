@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from support import SAMPLES
 from support.cycles import turn_backs
 from support.interpret import moves
-from postproc.diagnostics import InterpretationError, Reporter, SafetyError, UnplannableBlock
+from postproc.diagnostics import InterpretationError, PostprocError, Reporter, SafetyError, UnplannableBlock
 from postproc.geometry import Arc
 from postproc.interpret.program import interpret_source
 from postproc.compensate import rewrite as rewrite_module
@@ -517,92 +517,110 @@ def test_a_block_that_names_where_the_tool_stands_finds_it_at_the_nominal_end(sy
     assert ((ends[-1].x1, ends[-1].z1) == pytest.approx((20.0, -10.0))) == names
 
 
-def _stretch(text: str, monkeypatch, window: int = 8, **options) -> tuple[str, int]:
-    """The program rewritten with a small window, and the most steps read ahead of the line
-    being written (what the rewriter holds in memory)."""
-    monkeypatch.setattr(rewrite_module, "WINDOW", window)
-    shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
-    read = [0]
-
-    def counted(steps):
-        for step in steps:
-            read[0] += 1
-            yield step
-
-    with Source.from_text(text, "t.nc") as source:
-        rewriter = Rewriter(counted(interpret_source(source, DEFAULT)), each(shift), DEFAULT, Request(**options),
-                            Reporter(), "t.nc")
-        out, ahead = [], 0
-        for line in rewriter.run():
-            out.append(line)
-            ahead = max(ahead, read[0] - len(out))
-        return "".join(out), ahead
+_SHIFT = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))  # noqa: E731
 
 
-@pytest.mark.parametrize("filler", ["M08", "(A COMMENT)", "", "G04 X0.5", "M01", "S800"])
-def test_a_long_stretch_without_motion_is_written_as_it_is_read(filler, monkeypatch):
+def _stretch(text: str, window: int, profile=DEFAULT, **options) -> tuple[str, int]:
+    """The program rewritten with the given window (or the refusal, as text), and the most
+    steps the rewriter held in memory behind a motion step (a spooled stretch counts one), as
+    seen each time a step is read (a batch at a time)."""
+    held = [0]
+    saved = rewrite_module.WINDOW
+    rewrite_module.WINDOW = window
+    try:
+        with Source.from_text(text, "t.nc") as source:
+            rewriter = Rewriter(None, each(_SHIFT), profile, Request(tolerance=0.001, **options), Reporter(), "t.nc",
+                                labels=source.labels)
+
+            def counted(steps):
+                for step in steps:
+                    held[0] = max(held[0], len(rewriter._window))
+                    yield step
+
+            rewriter.steps = counted(interpret_source(source, profile))
+            try:
+                return "".join(rewriter.run()), held[0]
+            except PostprocError as exc:
+                return f"{type(exc).__name__}: {exc}", held[0]
+    finally:
+        rewrite_module.WINDOW = saved
+
+
+_UNBOUNDED = 10**9  #: a window no test program fills: every step held until the next move
+
+
+@pytest.mark.parametrize("filler", ["M08", "(A COMMENT)", "", "G04 X0.5", "M01", "S800", "G01", "/M08", "#100=1."])
+def test_a_long_stretch_without_motion_is_spooled_and_joined_as_a_short_one(filler):
     """A corrected move followed by thousands of blocks that move nothing (comments, M codes,
-    dwells, blank lines) is joined to the next move only through the window of steps after it:
-    past WINDOW of them, the move goes back to its nominal end and the window is written, so
-    memory stays flat however long the stretch. The next move is joined from that nominal end."""
-    stretch = 300
+    dwells, blank lines) holds at most WINDOW of them in memory: past that, their text goes to
+    a temporary file, and the join with the next move is settled when it comes, as for a short
+    stretch (the move's end retargeted to meet the next move's corrected start, no move back to
+    its nominal end). Every block of the stretch comes out byte for byte, in order."""
+    stretch = 3 * rewrite_module.BATCH  # the window is looked at as each batch is read
     text = ("G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nX40. Z-10.\n" + f"{filler}\n" * stretch +
             "G01 X60. Z-30.\nX70.\nG00 X100.\n")
-    out, ahead = _stretch(text, monkeypatch, tolerance=0.001)
-    assert ahead < 8 + rewrite_module.BATCH + 8  # the window and one batch read ahead, never the whole stretch
+    out, held = _stretch(text, 8)
+    assert held <= 8 + 2  # the motion step, its spooled stretch and the window: never the whole stretch
+    assert (out, "unbounded") == (_stretch(text, _UNBOUNDED)[0], "unbounded")
     lines = out.splitlines()
     first = lines.index(filler)
-    assert lines[first:first + stretch] == [filler] * stretch  # each byte for byte, in order
-    path = [m for m in moves(out) if m.kind == LINE]
-    before = [m for m in path if m.line <= first]
-    after = [m for m in path if m.line > first + stretch]
-    assert before[-2].x1 != pytest.approx(20.0)  # the move was corrected (X in diameter, moves in radius),
-    assert (before[-1].x1, before[-1].z1) == pytest.approx((20.0, -10.0))  # then went back to its nominal end
-    assert (after[0].x0, after[0].z0) == pytest.approx((20.0, -10.0))
-    assert (after[0].x1, after[0].z1) != pytest.approx((20.0, -10.0))  # a lead-in to the next move's corrected start
+    assert lines[first:first + stretch] == [filler] * stretch
+    assert "X40. Z-10." not in out  # corrected, and not sent back to its nominal end
 
 
-def test_a_short_stretch_without_motion_keeps_its_join(monkeypatch):
-    """Fewer than WINDOW blocks between two moves: the join is settled with the next move, as
-    ever (no move back to the nominal end)."""
-    text = "G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nX40. Z-10.\n" + "M08\n" * 5 + "G01 X60. Z-30.\nG00 X100.\n"
-    small, _ = _stretch(text, monkeypatch, window=8, tolerance=0.001)
-    large, _ = _stretch(text, monkeypatch, window=4096, tolerance=0.001)
-    assert small == large
-    assert not any(line.startswith("X40. Z-10.") for line in small.splitlines())
+_G42 = replace(DEFAULT, nose_radius_mm=0.4)
 
 
-@pytest.mark.parametrize("head, filler, tail, axes", [
-    ("G01 Z0.\nX40. Z-10. ,C1.", "(A COMMENT)", "G01 X60. Z-30.", "XZ"),
-    ("G01 Z0.\nX40. Z-10. C30.", "M08", "G01 X60. Z-30.", "XZC"),
-    ("G01 Z0. C0.\nX40. Z-10.", "M08", "G01 X60. Z-30. C90.", "XZC"),
-    ("G42 G00 X30. Z2.\nG01 Z0.\nX40. Z-10.", "(C)", "G01 X60. Z-30.\nG40 G00 X80.", "XZ"),
-    ("G71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\nN10 G00 X20.\nG01 Z-10.\nX30. Z-20.\nN20 X40.", "(C)", "G70 P10 Q20",
-     "XZ"),
+@pytest.mark.parametrize("head, filler, tail, profile, refused", [
+    ("G01 Z0.\nX40. Z-10.", "M08", "G42 G01 X60. Z-30.\nX70.\nG40 G00 X100.", _G42, False),  # G42 starts at the next move
+    ("G01 Z0.\nX40. Z-10.", "M08", "G41 G01 X60. Z-30.\nX70.\nG40 G00 X100.", _G42, False),
+    ("G42 G00 X30. Z2.\nG01 Z0.\nX40. Z-10.", "(C)", "G01 X60. Z-30.\nG40 G00 X80.", _G42, False),  # under G42 before
+    ("G42 G00 X30. Z2.\nG01 Z0.\nX40. Z-10.", "G04 X1.", "G02 X60. Z-30. R20.\nG40 G00 X80.", _G42, True),
+    ("G01 Z0.\nX40. Z-10.", "M08", "G42\nG01 X60. Z-30.\nG40 G00 X80.", _G42, False),
+    ("G01 Z0.\nX40. Z-10. ,C1.", "(A COMMENT)", "G01 X60. Z-30.", DEFAULT, False),  # a corner the next move finishes
+    ("G01 Z0.\nX40. Z-10. C30.", "M08", "G01 X60. Z-30.", replace(DEFAULT, axes="XZC"), False),
+    ("G00 X20. C0.\nG01 Z0.\nX40. Z-10.", "M08", "G01 X60. Z-30. C90.", replace(DEFAULT, axes="XZC"), False),
+    ("G02 X40. Z-10. R8.", "M08", "X60. Z-30. R25.", DEFAULT, False),  # the next block relies on the modal G02
+    ("G02 X40. Z-10. R8.", "G01", "X60. Z-30.", DEFAULT, False),  # ... on a G01 set in the stretch
+    ("G01 Z0.\nX40. Z-10.", "M08", "G02 X60. Z-30. R25.", DEFAULT, False),  # an arc after it: a connecting G01
+    ("G01 Z0.\nX40. Z-10.", "M08", "K1.\nG01 W-20.", DEFAULT, False),  # a block that relies on the mode stays in memory
+    ("G71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\nN10 G00 X20.\nG01 Z-10.\nX30. Z-20.\nN20 X40.", "(C)",
+     "G70 P10 Q20", DEFAULT, False),
+    ("G71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\nN10 G00 X20.\nG01 Z-10.\nX30. Z-20.\nX40.\nN20 (END)", "M08",
+     "G70 P10 Q20", DEFAULT, False),  # the contour's last block moves nothing: it stays in memory
 ])
-def test_a_move_its_next_move_finishes_is_held_with_its_whole_stretch(head, filler, tail, axes, monkeypatch):
-    """A corner the control rounds with the next move (,C ,R) cannot be sent back to its
-    nominal end, nor can a move under G41/G42 (the join would be refused) or one on a machine
-    with another axis (the next block may move it, and a lead-in would split it): their stretch
-    is held whole (for a corner, comments and blank lines: anything else alarms, PS0051). After
-    a cycle's contour nothing joins its end (the tool stands at the cycle's start point): the
-    stretch is written as it is read, with nothing added. Each program comes out as with no
-    limit."""
-    profile = replace(DEFAULT, axes=axes)
-    text = f"G18 G21 G99 F0.1\nG00 X42. Z5.\n{head}\n" + f"{filler}\n" * 40 + f"{tail}\nG00 X100.\n"
+def test_every_join_across_a_long_stretch_is_the_one_a_short_stretch_gets(head, filler, tail, profile, refused):
+    """Whatever the moves on either side of a long stretch of blocks that move nothing (a move
+    that starts or runs under G41/G42, a corner the control rounds with the next move, a block
+    that also moves another axis, a next block relying on a motion mode, a cycle's contour), the
+    program comes out exactly as with no limit on the window, refused alike where it is refused,
+    and memory holds at most the window. (A move under G42 whose corrected end must go back to
+    the nominal start of an arc after it is refused, as it is across a short stretch: that join
+    the control would offset backwards.)"""
+    text = (f"G18 G21 G99 F0.1\nG00 X42. Z5.\n{head}\n" + f"{filler}\n" * (3 * rewrite_module.BATCH)
+            + f"{tail}\nG00 X100.\nM30\n")
+    out, held = _stretch(text, 8, profile)
+    assert held <= 8 + 2
+    assert out == _stretch(text, _UNBOUNDED, profile)[0]
+    assert out.startswith("UnplannableBlock") == refused  # the others compensated, as before the window existed
 
-    def run(window):
-        monkeypatch.setattr(rewrite_module, "WINDOW", window)
-        shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
-        with Source.from_text(text, "t.nc") as source:
-            rewriter = Rewriter(interpret_source(source, profile), each(shift), profile, Request(tolerance=0.001),
-                                Reporter(), "t.nc")
-            try:
-                return "".join(rewriter.run())
-            except Exception as exc:  # the same refusal either way
-                return repr(exc)
 
-    assert run(8) == run(4096)
+_FILLERS = ["M08", "M09", "(C)", "", "G04 X0.5", "G01", "G00", "G02", "/M08", "#100=1.", "S800", "K1.", "G40", "G42"]
+_BEFORE = ["G01 X40. Z-10.", "G02 X40. Z-10. R8.", "G01 X40. Z-10. ,R1.", "G42 G01 X40. Z-10.", "G01 X40. Z-10. M05"]
+_AFTER = ["G01 X60. Z-30.", "X60. Z-30.", "G42 G01 X60. Z-30.", "G03 X60. Z-30. R25.", "W-5.", "G00 X80.", "M98 P100",
+          "G50 X60. Z-30."]
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(before=st.sampled_from(_BEFORE), stretch=st.lists(st.sampled_from(_FILLERS), min_size=0, max_size=30),
+       after=st.sampled_from(_AFTER), window=st.integers(1, 6))
+def test_a_stretch_of_any_length_is_written_as_with_no_window(before, stretch, after, window):
+    """The class: any motion step, any mix of blocks that move nothing (some that set the motion
+    mode, some that rely on it, some that start or cancel G41/G42), any next block, any window:
+    the output (or the refusal) is the one the rewriter gives holding every step in memory."""
+    text = ("G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\n" + before + "\n" + "".join(f"{f}\n" for f in stretch)
+            + after + "\nG40 G00 X100.\nM30\n")
+    assert _stretch(text, window, _G42)[0] == _stretch(text, _UNBOUNDED, _G42)[0]
 
 
 @pytest.mark.parametrize("call", ["M98 P1000", "M098 P1000 L2", "M0098 P1000", "M198 P1000", "G65 P9010 A1.",
@@ -639,6 +657,30 @@ def test_a_move_that_calls_keeps_its_end_or_is_refused_at_the_call(call):
     unmoved = lambda piece: None if piece.move.line != 3 else np.tile((0.003, -0.002), (len(piece.points), 1))
     out, _ = rewrite(text, unmoved, tolerance=0.001)  # its end stays where it was: nothing to refuse
     assert f"X40. Z-10. {call}" in out.splitlines()
+
+
+_G71 = "G71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\n"
+
+
+@pytest.mark.parametrize("cycle, n15, n20, line, said", [
+    (_G71, "G01 Z-10.", "N20 G01 X130. M98 P2000", 8, "its label N20 is the Q of the cycle on line 4"),
+    (_G71, "G01 Z-10.", "N20 G01 X130. M99", 8, "would stand outside P..Q and run once, after the cycle"),
+    ("", "G01 Z-10.", "N20 G01 X130. M98 P2000", 6, "its label N20 is the Q of a G70-G73 cycle"),
+    (_G71, "G01 Z-10. M98 P2000", "N20 G01 X130.", 6, "in the contour of the cycle on line 4 (between its P and Q)"),
+])
+def test_a_call_in_a_cycles_contour_is_refused_with_a_remedy_that_keeps_it_there(cycle, n15, n20, line, said):
+    """A call in a block of a cycle's P..Q contour is part of the contour: the usual remedy (a
+    block of its own after the move) would take it out of P..Q when the block is the one the Q
+    names, and inside a G71 contour nothing goes back to the programmed end before it. The
+    refusal says so and gives the remedy that keeps the program's meaning."""
+    text = (f"G18 G21 G99 F0.1\nG00 X132. Z5.\n{cycle}N10 G00 X20.\n{n15}\nX30. Z-20.\n{n20}\nG70 P10 Q20\n"
+            "G00 X200.\nM30\n")
+    shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
+    with pytest.raises(UnplannableBlock) as refused:
+        rewrite(text, shift, tolerance=0.001)
+    message = str(refused.value)
+    assert refused.value.location.line == line and said in message and "--keep-unplannable" in message
+    assert "give the call a block of its own" not in message
 
 
 @pytest.mark.parametrize("after", ["M98 P2000", "G50 X130. Z5.", "(C)\n" * 40 + "M08"])

@@ -240,7 +240,7 @@ def test_gcode_system_b_and_soft_limits(run, tmp_path):
 
 @pytest.mark.parametrize("options, code, message", [
     (["--datum-x", "95"], EXIT_USAGE, "give --datum-x and --datum-z together"),
-    (["--points", "0"], EXIT_BAD_INPUT, "--points 0: at least one point is needed"),
+    (["--points", "0"], EXIT_BAD_INPUT, "--points 0: must be a whole number, 1 or more"),
     (["--clearance", "0"], EXIT_BAD_INPUT, "--clearance 0: must be positive"),
     (["--tool", "T9X"], EXIT_BAD_INPUT, "--tool 9X: expected the digits of a T code"),
     (["--program-number", "10000"], EXIT_BAD_INPUT, "a FANUC program number is 1 to 9999"),

@@ -52,8 +52,9 @@ def test_peak_memory_is_flat_in_the_programs_length(tmp_path):
 
 def test_peak_memory_is_flat_in_a_stretch_without_motion(tmp_path):
     """A corrected move followed by a long stretch of blocks that move nothing (a coolant code
-    on every line, a block of comments) is joined to the next move through a bounded window:
-    300,000 such blocks take no more memory than 3,000."""
+    on every line, a block of comments) is joined to the next move through a bounded window, the
+    rest of the stretch waiting in a temporary file: 300,000 such blocks take no more memory
+    than 3,000."""
     peaks = {}
     for blocks in (3_000, 300_000):
         program = tmp_path / f"s{blocks}.nc"
