@@ -221,6 +221,9 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
         if self._expect is not None and (block.codes or block.statement is not None or block.label is not None):
             self._start_expected_contour(block)
         in_contour = self._capture is not None
+        if in_contour:
+            contour = self._capture.contour
+            self._refuse_in_contour(block, contour.p, contour.q, contour.cycle_line, contour.meaning)
         if block.label is not None and self._is_jump_target(block.label):
             self._forget()  # a jump may arrive here
         if (
