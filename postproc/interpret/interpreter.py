@@ -28,7 +28,7 @@ from typing import Callable, Iterable, Iterator
 from . import gcodes as G
 from .corners import corner_moves
 from .motion import ARC, CONTOUR, CYCLE, LINE, Modal, Move, RUN, Step
-from ..diagnostics import CornerError, InterpretationError, Location, Reporter, SafetyError
+from ..diagnostics import CornerError, InterpretationError, Location, PostprocError, Reporter, SafetyError
 from ..machine.bounds import travel
 from ..machine.profile import DEFAULT, MachineProfile
 from ..syntax.blocks import BLOCK, Block, HEADER
@@ -40,6 +40,11 @@ from .statements import MacroStatements
 from .convert import WordConversion
 from .arcs import MotionAndArcs
 from .cycles import ContourCycles
+
+
+#: What a block behind ``/`` must leave as it found it for the position to stay known after it.
+_SWITCH_INDEPENDENT = ("x", "z", "modal", "_work", "_drilling", "_modal_macro", "_unmodelled", "_skip_until",
+                       "_expect", "_capture", "_corner", "_fresh_corner", "variables")
 
 
 class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs, ContourCycles):
@@ -240,8 +245,8 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
                 return step
         try:
             if block.delete is not None and block.codes:
-                raise _Uninterpretable("block delete: whether the control runs this block depends on its switch")
-            if block.statement is not None:
+                step = self._optional_block(block)
+            elif block.statement is not None:
                 step = self._statement(block)
             else:
                 step = self._words_step(block)
@@ -255,6 +260,42 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
             step.contour_end = self._contour_block(block)
         step.shared = self._shared
         return step
+
+    def _optional_block(self, block: Block) -> Step:
+        """A block behind the block delete ``/``: the control runs it or skips it by the operator's
+        switch. Run here on trial: one that moves nothing and leaves every position, mode, frame and
+        modal value as it found them (``/M09``, ``/M01``, ``/G04 U1.``) leaves the tool where it
+        was either way, and the position stays known. Any other (a move, a G or M code that
+        changes a mode, units, the frame, a feed, a tool, a call) makes what follows depend on the
+        switch: it passes through uninterpreted, the position unknown after it and, for one that
+        gives a motion code, the motion mode too, so that no block written later leans on a mode
+        the switch decides."""
+        saved = dict(self.__dict__)
+        reporter, trial = self.reporter, Reporter()
+        self.reporter = trial
+        try:
+            step = self._words_step(block)
+        except (_Uninterpretable, PostprocError):
+            step = None
+        finally:
+            self.reporter = reporter
+        if step is not None and not step.moves and step.interpreted and all(
+                getattr(self, name) == saved[name] for name in _SWITCH_INDEPENDENT):
+            for warning in trial.warnings:
+                reporter.warn(warning.message, warning.location)
+            return step
+        self.__dict__.update(saved)
+        step = self._uninterpretable(block, _Uninterpretable("block delete: whether the control runs this block "
+                                                             "depends on its switch"))
+        if any(letter == "G" and (type(value) is not str or self._other_motion(G.code_key(float(value))))
+               for letter, value in block.codes):
+            self.modal = step.modal = replace(self.modal, motion=None)
+        return step
+
+    def _other_motion(self, key: int) -> bool:
+        """Whether the G code ``key`` commands a motion mode other than the one in force."""
+        kind, meaning = self.table.get(key, (None, None))
+        return kind is None or (kind == G.MOTION and meaning != self.modal.motion)  # an unknown code may be one
 
     def _enter_program(self, block: Block) -> None:
         """An O number starts a program; a local subprogram called from several places is

@@ -736,3 +736,24 @@ def test_after_a_cycle_the_mode_it_gave_back_is_in_force_whatever_its_contour_en
     shift = lambda piece: np.tile((0.003, -0.002), (len(piece.points), 1))
     out, _ = rewrite(text, shift, mode="line", tolerance=0.001)
     assert out.splitlines()[-1] == "X200. Z150."
+
+
+@pytest.mark.parametrize("deleted", ["/G00", "/G00 X50.", "/G02 X45. Z-12. R10.", "/2 G01"])
+def test_a_block_relying_on_the_mode_after_a_motion_code_behind_block_delete_is_refused(deleted):
+    """Skipped by the switch, a '/G00' leaves in force the mode written before it: after a
+    replacement that wrote lines for an arc, the next block that relies on the program's G03
+    would run as a line. Which mode is in force depends on the switch: refused, naming it."""
+    text = f"G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nG03 X40. Z-10. R10.\n{deleted}\nX60. Z-20. R10.\nG00 X100.\n"
+    with pytest.raises(SafetyError) as info:
+        rewrite(text, radial(0.002, lines={4}), mode="line", tolerance=0.001)
+    assert info.value.location.line == 6 and "relies on the modal motion code" in info.value.message
+    out, _ = rewrite(text.replace(deleted, deleted.replace("/2 ", "").lstrip("/")), radial(0.002, lines={4}),
+                     mode="line", tolerance=0.001)  # without '/': the mode is the block's, and nothing is refused
+    assert "X60. Z-20. R10." in out
+
+
+def test_a_block_delete_block_that_changes_nothing_leaves_the_mode_written_before_it():
+    text = "G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nG03 X40. Z-10. R10.\n/M09\nX60. Z-20. R10.\nG00 X100.\n"
+    out, _ = rewrite(text, radial(0.002, lines={4}), mode="line", tolerance=0.001)
+    lines = out.splitlines()
+    assert "/M09" in lines and "G03 X60. Z-20. R10." in lines  # the program's G03 written back in front
