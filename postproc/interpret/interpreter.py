@@ -12,7 +12,9 @@ Canned cycles: G71/G72/G73 run their P..Q contour blocks as roughing passes, not
 sequence: the contour blocks are interpreted as a contour (role ``contour``) from the
 cycle's start point and the program resumes after them at that start point. G70 runs
 the contour again as the finishing path (role ``replay``), then returns to its start
-point. Single-pass cycles (G90/G92/G94 in system A) and G74/G75/G76 are one row each.
+point. What the control does not take between P and Q (a call, a return, G10, another one-shot
+or group 01 code, the units) is an error at its word (``cycles``). A block behind ``/`` that
+changes nothing the interpreter tracks keeps the position known; any other leaves it unknown. Single-pass cycles (G90/G92/G94 in system A) and G74/G75/G76 are one row each.
 Threading (G32 in system A, G33 in B and C, G34, G35, G76, G92) is marked so that no
 compensator touches it; its end point is known. A mode that cannot be modelled (polar or
 cylindrical interpolation, mirror image, polygon turning) lets the blocks up to its cancel
