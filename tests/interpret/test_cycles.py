@@ -122,3 +122,16 @@ def test_an_m99_inside_the_contour_is_named_rather_than_the_q_beyond_the_program
 def test_a_subprogram_call_outside_the_contour_is_a_warning_as_before():
     program = _AFTER.format(cycle=_CYCLES["G71"], inside="G01 Z-12.").replace("M30", "M98 P2000\nM30")
     assert any(s.in_contour for s in steps(program))
+
+
+@pytest.mark.parametrize("cycle", sorted(_CYCLES))
+def test_a_contour_after_the_end_of_the_tape_is_not_the_programs(cycle):
+    """The control stops reading at the closing '%': a P or Q block after it is not found
+    (PS0060), and the error says where it stands, instead of the rest of the program being
+    skipped as a contour that does not follow its cycle."""
+    program = "%\n" + _AFTER.format(cycle=_CYCLES[cycle], inside="G01 Z-12.").replace("N10 G00 X20.", "%\nN10 G00 X20.")
+    with pytest.raises(InterpretationError) as info:
+        steps(program)
+    tape_end = program.splitlines().index("N10 G00 X20.") + 1
+    assert info.value.message.startswith(f"{cycle} P10: N10 stands only after the end of the tape (line {tape_end}")
+    assert "PS0060" in info.value.message
