@@ -28,7 +28,10 @@ _NOT_IN_CONTOUR = {
 }
 _ONE_SHOT_REMEDY = "put it before the cycle block or after the contour's last block"
 _MOTION_REMEDY = "only G00, G01, G02 and G03 move in a contour: put it before the cycle block or after the contour's last block"
-_NOT_GROUP_00 = frozenset((220, 260, 911, 961, 962, 963, 964))  #: table entries read as data that FANUC files elsewhere
+#: Codes the table reads as data (their words are no position) that FANUC files in other groups
+#: than 00 (G22 stored stroke check, G26 spindle speed fluctuation detection) or whose group the
+#: manuals do not settle (G91.1, G96.1-G96.4): left to the control.
+_NOT_GROUP_00 = frozenset((220, 260, 911, 961, 962, 963, 964))
 _CALLS = {98: ("a subprogram call", "write the subprogram's moves into the contour blocks, or call it before the "
                                     "cycle block or after the contour's last block"),
           198: ("a subprogram call from an external device", "write the subprogram's moves into the contour blocks, or "
@@ -71,9 +74,11 @@ class ContourCycles:
                 key = G.code_key(float(word.value))
                 kind, code_meaning = self.table.get(key, (None, None))
                 code = G.code_name(key)
-                if code_meaning in _NOT_IN_CONTOUR and (code_meaning != G.DATA or key not in _NOT_GROUP_00):
+                if key in _NOT_GROUP_00:
+                    continue
+                if code_meaning in _NOT_IN_CONTOUR:
                     what, remedy = _NOT_IN_CONTOUR[code_meaning]
-                elif kind == G.ONE_SHOT and code_meaning != G.DWELL and key not in _NOT_GROUP_00:
+                elif kind == G.ONE_SHOT and code_meaning != G.DWELL:
                     what, remedy = f"a one-shot (group 00) G code ({G.describe(code_meaning)})", _ONE_SHOT_REMEDY
                 elif kind == G.MOTION and code_meaning not in (G.G00, G.G01, G.G02, G.G03):
                     what, remedy = f"a group 01 code other than G00-G03 ({G.describe(code_meaning)})", _MOTION_REMEDY
@@ -82,8 +87,9 @@ class ContourCycles:
             else:
                 continue
             raise InterpretationError(
-                f"{word.text.strip()}: {what} in the contour N{p}..N{q} of the {name} on line {cycle_line}: a FANUC control takes no {code} between a multiple repetitive cycle's P and "
-                f"Q (it stops with an alarm), and what it would add to the contour cannot be seen here; {remedy}",
+                f"{word.text.strip()}: {what} in the contour N{p}..N{q} of the {name} on line {cycle_line}: a FANUC "
+                f"control takes no {code} between a multiple repetitive cycle's P and Q (it stops with an alarm), and "
+                f"what it would add to the contour cannot be seen here; {remedy}",
                 self._location(block, word.col))
 
     def _program_end_in_contour(self, block: Block, p: int, p_line: int, q: int, meaning: str) -> None:

@@ -350,6 +350,19 @@ def test_a_block_delete_block_that_changes_nothing_keeps_the_position_known(dele
     assert result[-1].modal == result[-3].modal
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 399).filter(lambda m: m not in (2, 30, 98, 99, 198)), st.sampled_from(["/", "/2 ", "/9"]),
+       st.booleans())
+def test_any_machine_m_code_behind_block_delete_keeps_the_position_known(number, switch, dwell):
+    """The class: an M code of the machine (coolant, stops, spindle, chuck...) alone or with a
+    dwell behind any block delete switch moves nothing and changes no mode."""
+    reporter = Reporter()
+    block = f"{switch}M{number:02d}" + (" G04 U0.5" if dwell else "")
+    result = steps("G18 G21 G99 F0.2\nG00 X100. Z10.\nG01 X50. Z0.\n" + block + "\nX40. Z-5.\n", reporter)
+    assert (result[-1].moves[0].x0, result[-1].moves[0].z0) == (25.0, 0.0)
+    assert not any("block delete" in w.message for w in reporter.warnings)
+
+
 @pytest.mark.parametrize("deleted, mode_unknown", [
     ("/G01 X80.", False), ("/U-2.", False), ("/G00", True), ("/G02 X50. Z-5. R5.", True), ("/G98", False),
     ("/G20", False), ("/T0202", False), ("/F0.1", False), ("/S500", False), ("/G55", False),
