@@ -76,19 +76,12 @@ class Planning:
         block = step.block
         cause = (f"it calls or returns ({word.text}) after its move, and the correction moves the move's end, "
                  f"where the program it passes to was written to start")
-        keep = "--keep-unplannable to leave such blocks uncompensated (the move keeps its programmed end)"
-        if step.contour_end or self._ends_a_cycle(block):  # a block after it is outside P..Q
-            cycle = f"the cycle on line {step.cycle_line}" if step.contour_end else "a G70-G73 cycle"
-            remedy = (f"the block is the last of a cycle's contour (its label N{block.label} is the Q of {cycle}), and "
-                      f"so is its call: a block of its own after the move would stand outside P..Q and run once, "
-                      f"after the cycle, not with the contour; to go on, {keep}, or move the call out of the contour "
-                      f"only where it need not run with it")
-        elif step.in_contour:  # inside a G71/G72 contour nothing goes back to the programmed end
-            remedy = (f"the block is in the contour of the cycle on line {step.cycle_line} (between its P and Q), "
-                      f"whose blocks run one way and never go back to a programmed end: a call in a block of its own "
-                      f"would start from the corrected contour all the same; to go on, {keep}")
+        if self._ends_a_cycle(block):  # a contour before its G70-G73: the cycle, not yet read, would refuse the call
+            remedy = (f"its label N{block.label} is the Q of a G70-G73 cycle, and a FANUC control takes no call or "
+                      f"return between a cycle's P and Q (it stops with an alarm): move the call out of the contour")
         else:
-            remedy = f"to go on, give the call a block of its own after the move, or {keep}"
+            remedy = ("to go on, give the call a block of its own after the move, or --keep-unplannable to leave such "
+                      "blocks uncompensated")
         raise UnplannableBlock(f"block cannot be compensated: {cause} ({CALL}); {remedy}",
                                Location(self.file, block.line, word.col + 1, block.text), CALL, f"{cause} ({CALL})")
 

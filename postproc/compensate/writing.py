@@ -48,8 +48,10 @@ class Writing:
                     if block.delete is None:  # a block the control may skip leaves the mode as it was
                         self.mode_now = wanted
                     return [with_motion_code(block, writer.code(wanted, Style.of(block)))]
-            if sets_mode or self.mode_now is None:
+            if (sets_mode and block.delete is None) or self.mode_now is None:
                 self.mode_now = step.modal.motion
+            elif sets_mode and fields is None and call_word(block) is None:
+                pass  # behind '/': skipped, the mode written before stays; run, it is the block's (known_mode keeps the program's)
             elif fields is None and (call := call_word(block)) is not None:
                 if self.mode_now != before and before is not None:
                     self._mode_into_call(step, call, before)

@@ -9,12 +9,100 @@ from __future__ import annotations
 from . import gcodes as G
 from .motion import CYCLE, Move, RAPID, REPLAY, Step
 from ..diagnostics import InterpretationError, Reporter, SafetyError
-from ..syntax.blocks import Block
+from ..syntax.blocks import BLOCK, Block
 from .state import _Capture, _Contour, _Words
+
+
+#: What a contour block may not command, by the meaning of its G code: a FANUC control takes,
+#: between a G70-G73's P and Q, moves in G00-G03 and no one-shot (group 00) G code but the dwell
+#: G04, no other group 01 code (threading, the single-pass cycles), no units (group 06) and no
+#: call or return (see :meth:`ContourCycles._refuse_in_contour`). The rest of the words of such
+#: a block (G40-G42, F, S, T, M08...) are taken.
+_NOT_IN_CONTOUR = {
+    G.DATA: ("data setting", "set the data before the cycle block or after the contour's last block"),
+    G.MACRO_CALL: ("a macro call", "write the macro's moves into the contour blocks, or call it before the cycle "
+                                   "block or after the contour's last block"),
+    G.MODAL_MACRO: ("a modal macro call", "call the macro before the cycle block or after the contour's last block"),
+    G.INCH: ("inch input (units)", "set the units before the cycle block"),
+    G.METRIC: ("metric input (units)", "set the units before the cycle block"),
+}
+_ONE_SHOT_REMEDY = "put it before the cycle block or after the contour's last block"
+_MOTION_REMEDY = "only G00, G01, G02 and G03 move in a contour: put it before the cycle block or after the contour's last block"
+#: Codes the table reads as data (their words are no position) that FANUC files in other groups
+#: than 00 (G22 stored stroke check, G26 spindle speed fluctuation detection) or whose group the
+#: manuals do not settle (G91.1, G96.1-G96.4): left to the control.
+_NOT_GROUP_00 = frozenset((220, 260, 911, 961, 962, 963, 964))
+_CALLS = {98: ("a subprogram call", "write the subprogram's moves into the contour blocks, or call it before the "
+                                    "cycle block or after the contour's last block"),
+          198: ("a subprogram call from an external device", "write the subprogram's moves into the contour blocks, or "
+                                                             "call it before the cycle block or after the contour's last block"),
+          99: ("a return (the end of the program)", "end the program after the contour's last block")}
 
 
 class ContourCycles:
     """Contour cycles, mixed into :class:`~postproc.interpret.interpreter.Interpreter`."""
+
+    def _refuse_in_contour(self, block: Block, p: int, q: int, cycle_line: int, meaning: str) -> None:
+        """Refuse a contour block with what a multiple repetitive cycle does not take between its P
+        and Q (the finishing shape program).
+
+        The FANUC lathe manuals (Series 16i/18i/21i-T, 0i-TD/TF and 30i/31i/32i-A/B, "Multiple
+        repetitive cycle", the notes and limitations of G71, G72 and G73, which G70 finishes) list
+        what cannot be specified in the blocks from the sequence number P to Q: one-shot (group 00)
+        G codes other than G04 (dwell); group 01 codes other than G00, G01, G02 and G03 (threading,
+        the single-pass cycles); group 06 codes (inch and metric input); M98 and M99. The control
+        stops with an alarm there ("improper G code in G71-G73", PS0066, for a G code). A macro
+        call (G65, and G66/G66.1, which makes each move a call) is a one-shot or modal call like
+        M98 (M198: from an external device). Even on a control set to accept one, what the called
+        program cuts is a part of the contour postproc cannot see: a contour compensated without it
+        would not be the one the cycle runs. So each of these is an error at its word, in every
+        cycle, whether the contour follows the cycle or stands before it, and behind ``/`` too (the
+        switch decides whether the control reads it). G04, G40-G42, F, S, T and the M codes of the
+        machine (M08...) are taken: the roughing cycles ignore F, S and T in the contour, G70 runs
+        them."""
+        name = G.code_name(next(key for key, (_, means) in self.table.items() if means == meaning))
+        for word in block.words:
+            if type(word.value) is not str:
+                continue  # a value only the run gives: the block is not interpreted (a warning says so)
+            if word.letter == "M":
+                number = int(float(word.value))
+                if number not in _CALLS:
+                    continue
+                what, remedy = _CALLS[number]
+                code = f"M{number:02d}"
+            elif word.letter == "G":
+                key = G.code_key(float(word.value))
+                kind, code_meaning = self.table.get(key, (None, None))
+                code = G.code_name(key)
+                if key in _NOT_GROUP_00:
+                    continue
+                if code_meaning in _NOT_IN_CONTOUR:
+                    what, remedy = _NOT_IN_CONTOUR[code_meaning]
+                elif kind == G.ONE_SHOT and code_meaning != G.DWELL:
+                    what, remedy = f"a one-shot (group 00) G code ({G.describe(code_meaning)})", _ONE_SHOT_REMEDY
+                elif kind == G.MOTION and code_meaning not in (G.G00, G.G01, G.G02, G.G03):
+                    what, remedy = f"a group 01 code other than G00-G03 ({G.describe(code_meaning)})", _MOTION_REMEDY
+                else:
+                    continue
+            else:
+                continue
+            raise InterpretationError(
+                f"{word.text.strip()}: {what} in the contour N{p}..N{q} of the {name} on line {cycle_line}: a FANUC "
+                f"control takes no {code} between a multiple repetitive cycle's P and Q (it stops with an alarm), and "
+                f"what it would add to the contour cannot be seen here; {remedy}",
+                self._location(block, word.col))
+
+    def _program_end_in_contour(self, block: Block, p: int, p_line: int, q: int, meaning: str) -> None:
+        """A Q found only after the end of the program that runs the cycle: when the block that
+        ends it is an M99 inside the contour, that is the mistake to name."""
+        if self._reread is None or self.labels.in_program_of(q, block.line):
+            return
+        _, _, last = self.labels.program_of(block.line)
+        if last is None or last < p_line or not any(line > last for line in self.labels.lines.get(q, ())):
+            return
+        for end in self._reread(last, last):
+            if end.kind == BLOCK:
+                self._refuse_in_contour(end, p, q, block.line, meaning)
 
     def _contour_cycle(self, block: Block, words: _Words, meaning: str) -> Step:
         values = words.values
@@ -28,6 +116,7 @@ class ContourCycles:
             self._need_feed(block, words, CYCLE, meaning)
         p, q = int(values["P"]), int(values["Q"])
         p_line = self._label_line(block, "P", p, name)
+        self._program_end_in_contour(block, p, p_line, q, meaning)
         q_line = self._label_line(block, "Q", q, name)
         if q_line < p_line:
             raise InterpretationError(f"{name}: Q{q} (line {q_line}) comes before P{p} (line {p_line})",
@@ -54,7 +143,7 @@ class ContourCycles:
             self._skip_until = q
             return Step(block, moves, self.modal, interpreted=False)
         if recorded is None:
-            recorded = self._reread_contour(p, q, p_line, q_line, block)
+            recorded = self._reread_contour(p, q, p_line, q_line, block, meaning)
         elif meaning in G.ONE_WAY_CYCLES and recorded.meaning != meaning:
             self._roughed_twice(block, name, recorded)
         if meaning == G.FINISH:
@@ -83,6 +172,14 @@ class ContourCycles:
         of the same number in another program of the file is not found there (PS0060), and two
         in the program make the contour ambiguous."""
         if self.labels.counts.get(label, 0) == 0:
+            unread = self.labels.unread.get(label)
+            if unread is not None:
+                raise InterpretationError(
+                    f"{name} {letter}{label}: N{label} stands only after the end of the tape (line {unread}, after the "
+                    f"closing '%'), where the control reads nothing (FANUC alarm PS0060): move that '%' after the "
+                    f"program's last block, or the contour before it",
+                    self._location(block, self._col(block, letter)),
+                )
             raise InterpretationError(
                 f"{name} {letter}{label}: no block N{label} in the program (FANUC alarm PS0060)",
                 self._location(block, self._col(block, letter)),
@@ -131,11 +228,14 @@ class ContourCycles:
         self.x, self.z = capture.resume_at
         return True
 
-    def _reread_contour(self, p: int, q: int, p_line: int, q_line: int, block: Block) -> _Contour:
+    def _reread_contour(self, p: int, q: int, p_line: int, q_line: int, block: Block, meaning: str) -> _Contour:
         """A contour placed before its cycle that no earlier cycle recorded: read it again."""
         if self._reread is None:
             raise InterpretationError(f"contour N{p}..N{q} cannot be read again here", self._location(block, self._col(block, "P")))
         contour = _Contour(p, q, block.line, blocks=list(self._reread(p_line, q_line)))
+        for read in contour.blocks:
+            if read.kind == BLOCK:
+                self._refuse_in_contour(read, p, q, block.line, meaning)
         self.contours[(p, q, p_line)] = contour
         return contour
 

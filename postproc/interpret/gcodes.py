@@ -249,7 +249,13 @@ def code_name(key: int) -> str:
 _DESCRIBED = {G32: "threading", PER_REV: "feed per revolution", PER_MINUTE: "feed per minute",
               ABSOLUTE: "absolute programming", INCREMENTAL: "incremental programming", INCH: "inch input",
               METRIC: "metric input", TURN_CYCLE: "the turning cycle", THREAD_CYCLE: "the threading cycle",
-              FACE_CYCLE: "the facing cycle", COORDINATE: "coordinate system setting"}
+              FACE_CYCLE: "the facing cycle", COORDINATE: "coordinate system setting",
+              VARIABLE_LEAD: "variable lead threading", CIRCULAR_THREAD: "circular threading"}
+
+
+def describe(meaning) -> str:
+    """A code's meaning in words, for a message."""
+    return _DESCRIBED.get(meaning, str(meaning).replace("-", " "))
 
 
 def elsewhere(key: int, system: str) -> str:
@@ -261,7 +267,7 @@ def elsewhere(key: int, system: str) -> str:
     if not others:
         return ""
     meaning = SYSTEMS[others[0]][key][1]
-    described = _DESCRIBED.get(meaning, str(meaning).replace("-", " "))
+    described = describe(meaning)
     return (f"; in G-code system {' and '.join(others)} it is {code_name(key)} ({described}): if the control is set to "
             f"{'that system' if len(others) == 1 else 'one of them'}, state gcode_system in the machine profile")
 

@@ -12,7 +12,9 @@ Canned cycles: G71/G72/G73 run their P..Q contour blocks as roughing passes, not
 sequence: the contour blocks are interpreted as a contour (role ``contour``) from the
 cycle's start point and the program resumes after them at that start point. G70 runs
 the contour again as the finishing path (role ``replay``), then returns to its start
-point. Single-pass cycles (G90/G92/G94 in system A) and G74/G75/G76 are one row each.
+point. What the control does not take between P and Q (a call, a return, G10, another one-shot
+or group 01 code, the units) is an error at its word (``cycles``). A block behind ``/`` that
+changes nothing the interpreter tracks keeps the position known; any other leaves it unknown. Single-pass cycles (G90/G92/G94 in system A) and G74/G75/G76 are one row each.
 Threading (G32 in system A, G33 in B and C, G34, G35, G76, G92) is marked so that no
 compensator touches it; its end point is known. A mode that cannot be modelled (polar or
 cylindrical interpolation, mirror image, polygon turning) lets the blocks up to its cancel
@@ -28,7 +30,7 @@ from typing import Callable, Iterable, Iterator
 from . import gcodes as G
 from .corners import corner_moves
 from .motion import ARC, CONTOUR, CYCLE, LINE, Modal, Move, RUN, Step
-from ..diagnostics import CornerError, InterpretationError, Location, Reporter, SafetyError
+from ..diagnostics import CornerError, InterpretationError, Location, PostprocError, Reporter, SafetyError
 from ..machine.bounds import travel
 from ..machine.profile import DEFAULT, MachineProfile
 from ..syntax.blocks import BLOCK, Block, HEADER
@@ -40,6 +42,11 @@ from .statements import MacroStatements
 from .convert import WordConversion
 from .arcs import MotionAndArcs
 from .cycles import ContourCycles
+
+
+#: What a block behind ``/`` must leave as it found it for the position to stay known after it.
+_SWITCH_INDEPENDENT = ("x", "z", "modal", "_work", "_drilling", "_modal_macro", "_unmodelled", "_skip_until",
+                       "_expect", "_capture", "_corner", "_fresh_corner", "variables")
 
 
 class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs, ContourCycles):
@@ -226,6 +233,9 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
         if self._expect is not None and (block.codes or block.statement is not None or block.label is not None):
             self._start_expected_contour(block)
         in_contour = self._capture is not None
+        if in_contour:
+            contour = self._capture.contour
+            self._refuse_in_contour(block, contour.p, contour.q, contour.cycle_line, contour.meaning)
         if block.label is not None and self._is_jump_target(block.label):
             self._forget()  # a jump may arrive here
         if (
@@ -242,8 +252,8 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
                 return step
         try:
             if block.delete is not None and block.codes:
-                raise _Uninterpretable("block delete: whether the control runs this block depends on its switch")
-            if block.statement is not None:
+                step = self._optional_block(block)
+            elif block.statement is not None:
                 step = self._statement(block)
             else:
                 step = self._words_step(block)
@@ -257,6 +267,42 @@ class Interpreter(CanonicalLines, MacroStatements, WordConversion, MotionAndArcs
             step.contour_end = self._contour_block(block)
         step.shared = self._shared
         return step
+
+    def _optional_block(self, block: Block) -> Step:
+        """A block behind the block delete ``/``: the control runs it or skips it by the operator's
+        switch. Run here on trial: one that moves nothing and leaves every position, mode, frame and
+        modal value as it found them (``/M09``, ``/M01``, ``/G04 U1.``) leaves the tool where it
+        was either way, and the position stays known. Any other (a move, a G or M code that
+        changes a mode, units, the frame, a feed, a tool, a call) makes what follows depend on the
+        switch: it passes through uninterpreted, the position unknown after it and, for one that
+        gives a motion code, the motion mode too, so that no block written later leans on a mode
+        the switch decides."""
+        saved = dict(self.__dict__)
+        reporter, trial = self.reporter, Reporter()
+        self.reporter = trial
+        try:
+            step = self._words_step(block)
+        except (_Uninterpretable, PostprocError):
+            step = None
+        finally:
+            self.reporter = reporter
+        if step is not None and not step.moves and step.interpreted and all(
+                getattr(self, name) == saved[name] for name in _SWITCH_INDEPENDENT):
+            for warning in trial.warnings:
+                reporter.warn(warning.message, warning.location)
+            return step
+        self.__dict__.update(saved)
+        step = self._uninterpretable(block, _Uninterpretable("block delete: whether the control runs this block "
+                                                             "depends on its switch"))
+        if any(letter == "G" and (type(value) is not str or self._other_motion(G.code_key(float(value))))
+               for letter, value in block.codes):
+            self.modal = step.modal = replace(self.modal, motion=None)
+        return step
+
+    def _other_motion(self, key: int) -> bool:
+        """Whether the G code ``key`` commands a motion mode other than the one in force."""
+        kind, meaning = self.table.get(key, (None, None))
+        return kind is None or (kind == G.MOTION and meaning != self.modal.motion)  # an unknown code may be one
 
     def _enter_program(self, block: Block) -> None:
         """An O number starts a program; a local subprogram called from several places is

@@ -114,7 +114,9 @@ def _explain(exc: LarkError, text: str) -> tuple[str, int]:
         char = text[col] if col < len(text) else ""
         before = text[:col].rstrip(" \t")
         if char == "(":
-            return "comment is not closed: '(' without its ')'", col
+            return _explain_comment(text, col)
+        if char == "%":
+            return _PERCENT_IN_BLOCK, col
         if char == ")":
             return "')' without a '(' opening a comment", col
         if char and (not char.isprintable() or ord(char) > 126):
@@ -142,6 +144,8 @@ def _explain(exc: LarkError, text: str) -> tuple[str, int]:
         last = history[-1] if history else None
         if token.type == "SEQUENCE_NUMBER":
             return "a sequence number N must begin the block", col
+        if token.type == "PERCENT":
+            return _PERCENT_IN_BLOCK, col
         if last is not None and last.type == "EOB":
             return ("only comments and ';' may follow ';', the end of the block: the rest goes on a line of its own, a "
                     "comment in parentheses (';' starts a comment on Siemens, HEIDENHAIN and LinuxCNC controls, not on a "
@@ -160,6 +164,24 @@ def _explain(exc: LarkError, text: str) -> tuple[str, int]:
     if isinstance(exc, UnexpectedEOF):
         return _explain_end(text, exc.expected)
     return f"cannot parse this block ({exc.__class__.__name__})", 0
+
+
+#: '%' after the start of a block: the end-of-record mark, which the control reads as the end of
+#: the tape wherever it stands.
+_PERCENT_IN_BLOCK = ("'%' inside a block: '%' is the end of the tape (end of record), where the control stops reading, "
+                     "even in the middle of a block; it stands on a line of its own after the program's last block: "
+                     "delete it here, or give it a line of its own where the tape ends")
+
+
+def _explain_comment(text: str, col: int) -> tuple[str, int]:
+    """A '(' the grammar could not close: a comment inside a comment, or one left open."""
+    inner = text.find("(", col + 1)
+    close = text.find(")", col + 1)
+    if inner != -1 and (close == -1 or inner < close):
+        return ("'(' inside a comment: FANUC comments do not nest; the control ends the comment at its first ')' "
+                "and reads what follows as words: take the inner parentheses out of the comment (write '-' or "
+                "'[' ']' instead)"), inner
+    return "comment is not closed: '(' without its ')' on its line: close it with ')'", col
 
 
 _KEYWORD_AT_END = re.compile(r"(?i)(goto|then|do|end|while|wh|if)$")

@@ -34,6 +34,11 @@ _PROGRAM = re.compile(rb"(?m)^[ \t%]*([Oo:][ \t]*\d[\d \t]*|<[^>\r\n]*>?)")
 # A cycle's P and Q are looked for from the program's O number to the first end at or after the
 # cycle (an M99 before it may be a conditional return).
 _END = re.compile(rb"(?m)^(?![ \t]*/)[^(;\r\n]*?[Mm][ \t]*(?:0[ \t]*)*(?:3[ \t]*0|2|9[ \t]*9)(?![ \t]*\d)")
+# A tape mark: '%' opening a line, after spaces or a byte order mark. The first one after any other
+# text (or the second one) is the end of the tape: the control reads nothing after it, so nothing
+# there is a block a cycle's P or Q, a program's start or its end can be.
+_TAPE_MARK = re.compile(rb"(?m)^(?:[ \t]|\xef\xbb\xbf)*%")
+_LEADER = re.compile(rb"(?:\xef\xbb\xbf)?[ \t\r\n]*")
 # Searched in lower-cased text, each starting with a literal: an alternation or a
 # case-blind pattern would be tried at every G of the program.
 _GOTO = re.compile(rb"goto[ \t]*(\d+|[#\[])")
@@ -79,10 +84,11 @@ class LabelIndex:
         self._programs: list[int] = []  # the line of each program's O number (or <NAME>)
         self._names: list[str] = []  # and that number or name, as written
         self._ends: list[int] = []  # the lines of the blocks that end a program (M30, M02, M99)
+        self._unread: dict[int, int] = {}  # label -> its first line after the end of the tape ('%')
 
     def _labels(self) -> None:
         if self._lines is None:
-            self._lines, self._counts, programs, self._ends = self._scan()
+            self._lines, self._counts, programs, self._ends, self._unread = self._scan()
             self._programs = [line for line, _ in programs]
             self._names = [name for _, name in programs]
 
@@ -91,6 +97,13 @@ class LabelIndex:
         """Label -> the line numbers of the blocks that carry it, in order."""
         self._labels()
         return self._lines
+
+    @property
+    def unread(self) -> dict[int, int]:
+        """Label -> the first line carrying it after the end of the tape (the closing '%'), where
+        the control reads nothing: no cycle finds its P or Q there."""
+        self._labels()
+        return self._unread
 
     def program_of(self, line: int) -> tuple[str, int, int | None]:
         """The program that runs the block on ``line``: its name (``O0002``, ``<NAME>``, or the
@@ -294,24 +307,38 @@ class Source:
                     _cycle_range(chunk, match.start(), ranges)
         return ranges[b"p"], ranges[b"q"]
 
-    def _label_places(self) -> tuple[dict[int, list[int]], dict[int, int], list[tuple[int, str]], list[int]]:
-        """Scan the whole program, a chunk at a time, for the lines of its sequence numbers, of
-        the program numbers that start each program the file holds (with the number), and of the
-        blocks that end a program."""
+    def _label_places(self) -> tuple[dict[int, list[int]], dict[int, int], list[tuple[int, str]], list[int],
+                                     dict[int, int]]:
+        """Scan the program, a chunk at a time, for the lines of its sequence numbers, of the
+        program numbers that start each program the file holds (with the number), and of the
+        blocks that end a program, up to the end of the tape (the closing '%', as the reader
+        reads it); and the labels after that end, which the control never reads."""
         lines: dict[int, list[int]] = {}
         counts: dict[int, int] = {}
         programs: list[tuple[int, str]] = []
         ends: list[int] = []
+        unread: dict[int, int] = {}
         line = 1
+        opened = ended = False  # a '%' read; the end of the tape read
         for chunk in self.chunks():
             found = [(match.start(), "label", match) for match in _LABEL.finditer(chunk)]
             found += [(match.start(1), "program", match) for match in _PROGRAM.finditer(chunk)]
             found += [(match.start(), "end", match) for match in _END.finditer(chunk)]
+            if not ended:
+                found += [(match.start(), "tape", match) for match in _TAPE_MARK.finditer(chunk)]
             found.sort(key=lambda item: item[0])
             last = 0
             for start, kind, match in found:
                 line += count_lines(chunk, last, start)
                 last = start
+                if ended:
+                    if kind == "label":
+                        unread.setdefault(int(match.group(1)), line)
+                    continue
+                if kind == "tape":
+                    ended = opened or _LEADER.match(chunk, 0, start).end() < start
+                    opened = True
+                    continue
                 if kind == "program":
                     name = match.group(1).decode("ascii", "replace")
                     programs.append((line, "O" + re.sub(r"[ \t]", "", name[1:]) if name[0] in "Oo:" else name))
@@ -323,7 +350,8 @@ class Source:
                 counts[label] = counts.get(label, 0) + 1
                 lines.setdefault(label, []).append(line)
             line += count_lines(chunk, last, len(chunk))
-        return lines, counts, programs, ends
+            opened = opened or _LEADER.match(chunk).end() < len(chunk)  # text before any '%': the next one ends the tape
+        return lines, counts, programs, ends, unread
 
     def chunks(self, size: int = 1 << 20) -> Iterator[bytes]:
         """The file in pieces that end at a line ending, so that no line is split."""

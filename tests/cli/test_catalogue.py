@@ -55,7 +55,18 @@ PROGRAMS = [
     ("IF [#1 EQ 1] GOTO\n", "1:14: error: GOTO at the end of the block: what it needs is missing (FANUC alarm PS0114)"),
     ("#1 = 5 X1.\n", "1:1: error: a macro statement must stand alone in its block (FANUC alarm PS0114)"),
     ("#1 = 1 / 0\n", "1:1: error: macro expression: division by zero (FANUC alarm PS0112)"),
-    ("G00 X1. (open\n", "1:9: error: comment is not closed: '(' without its ')'"),
+    ("G00 X1. (open\n", "1:9: error: comment is not closed: '(' without its ')' on its line: close it with ')'"),
+    ("G00 X1. (A (B) C)\n", "1:12: error: '(' inside a comment: FANUC comments do not nest; the control ends the "
+                             "comment at its first ')' and reads what follows as words: take the inner parentheses out "
+                             "of the comment (write '-' or '[' ']' instead)"),
+    ("G00 X1. %\n", "1:9: error: '%' inside a block: '%' is the end of the tape (end of record), where the control stops "
+                    "reading, even in the middle of a block; it stands on a line of its own after the program's last "
+                    "block: delete it here, or give it a line of its own where the tape ends"),
+    ("G00 X1. Z1.\nG71 P10 Q20 U.1 W.1 F.2\nN10 G01 X2.\nM98 P1000\nN20 Z0.\n",
+     "4:1: error: M98: a subprogram call in the contour N10..N20 of the G71 on line 2: a FANUC control takes no M98 "
+     "between a multiple repetitive cycle's P and Q (it stops with an alarm), and what it would add to the contour "
+     "cannot be seen here; write the subprogram's moves into the contour blocks, or call it before the cycle block or "
+     "after the contour's last block"),
     ("G00 X1.)\n", "1:8: error: ')' without a '(' opening a comment"),
     ("G00 X1. Z1. F.1\nG01 X10. ,C1.\nG00 X20.\n",
      "2:10: error: corner ,C must be followed by a G01/G02/G03 move (FANUC alarm PS0051)"),

@@ -662,25 +662,25 @@ def test_a_move_that_calls_keeps_its_end_or_is_refused_at_the_call(call):
 _G71 = "G71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\n"
 
 
-@pytest.mark.parametrize("cycle, n15, n20, line, said", [
-    (_G71, "G01 Z-10.", "N20 G01 X130. M98 P2000", 8, "its label N20 is the Q of the cycle on line 4"),
-    (_G71, "G01 Z-10.", "N20 G01 X130. M99", 8, "would stand outside P..Q and run once, after the cycle"),
-    ("", "G01 Z-10.", "N20 G01 X130. M98 P2000", 6, "its label N20 is the Q of a G70-G73 cycle"),
-    (_G71, "G01 Z-10. M98 P2000", "N20 G01 X130.", 6, "in the contour of the cycle on line 4 (between its P and Q)"),
+@pytest.mark.parametrize("cycle, n15, n20, line, col", [
+    (_G71, "G01 Z-10.", "N20 G01 X130. M98 P2000", 8, 15),
+    (_G71, "G01 Z-10.", "N20 G01 X130. M99", 8, 15),
+    (_G71, "G01 Z-10. M98 P2000", "N20 G01 X130.", 6, 11),
+    ("", "G01 Z-10.", "N20 G01 X130. M98 P2000", 6, 15),  # a contour before its G70: refused before it is read
 ])
-def test_a_call_in_a_cycles_contour_is_refused_with_a_remedy_that_keeps_it_there(cycle, n15, n20, line, said):
-    """A call in a block of a cycle's P..Q contour is part of the contour: the usual remedy (a
-    block of its own after the move) would take it out of P..Q when the block is the one the Q
-    names, and inside a G71 contour nothing goes back to the programmed end before it. The
-    refusal says so and gives the remedy that keeps the program's meaning."""
+def test_a_call_in_a_cycles_contour_is_refused_at_the_call_before_any_plan(cycle, n15, n20, line, col):
+    """A call or return in a block of a cycle's P..Q contour: the control takes none there
+    (test_cycles has the whole class), so the program is refused at the call word as it is read,
+    whatever the correction, and never reaches the planner's remedy of a block of its own for
+    the call (which would take the call out of P..Q)."""
     text = (f"G18 G21 G99 F0.1\nG00 X132. Z5.\n{cycle}N10 G00 X20.\n{n15}\nX30. Z-20.\n{n20}\nG70 P10 Q20\n"
             "G00 X200.\nM30\n")
     shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
-    with pytest.raises(UnplannableBlock) as refused:
+    with pytest.raises((InterpretationError, UnplannableBlock)) as refused:
         rewrite(text, shift, tolerance=0.001)
-    message = str(refused.value)
-    assert refused.value.location.line == line and said in message and "--keep-unplannable" in message
-    assert "give the call a block of its own" not in message
+    assert (refused.value.location.line, refused.value.location.col) == (line, col)
+    assert "a FANUC control takes no" in str(refused.value) and "P and Q (it stops with an alarm)" in str(refused.value)
+    assert "give the call a block of its own" not in str(refused.value)
 
 
 @pytest.mark.parametrize("after", ["M98 P2000", "G50 X130. Z5.", "(C)\n" * 40 + "M08"])
@@ -784,9 +784,10 @@ def test_after_a_cycle_the_mode_it_gave_back_is_in_force_whatever_its_contour_en
                                     "G00 X20. Z5." + "\n(C)" * 12])
 def test_a_move_with_nothing_before_it_to_join_starts_from_its_nominal_start(before, monkeypatch):
     """The first move of the program, or the first after a block that names where the tool stands
-    (G50), or after a long stretch without motion, has no corrected move before it to meet: the tool stands at the move's nominal start, and a connecting G01 takes it to the
-    corrected start. Without it the first piece ran from the nominal start, off its plan by the
-    correction there."""
+    (G50), has no corrected move before it to meet: the tool stands at the move's nominal start,
+    and a connecting G01 takes it to the corrected start. Without it the first piece ran from the
+    nominal start, off its plan by the correction there. After a long stretch without motion the
+    move before it is met as across a short one."""
     monkeypatch.setattr(rewrite_module, "WINDOW", 8)
     text = f"G18 G21 G99 F0.1\n{before}\nG01 X20. Z-20.\nX30. Z-30.\nG00 X100.\n"
     shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
@@ -824,3 +825,24 @@ def test_a_move_from_where_the_program_put_the_tool_is_joined_from_there(head, m
     x, z = (start.x0 + 0.003) * 2, start.z0 - 0.002
     assert lines[after + 1] == f"G01 X{x:.3f} Z{z:.3f}".replace(".000", "."), out
     assert lines[after + 2] == "X190.006 Z-70.002"
+
+
+@pytest.mark.parametrize("deleted", ["/G00", "/G00 X50.", "/G02 X45. Z-12. R10.", "/2 G01"])
+def test_a_block_relying_on_the_mode_after_a_motion_code_behind_block_delete_is_refused(deleted):
+    """Skipped by the switch, a '/G00' leaves in force the mode written before it: after a
+    replacement that wrote lines for an arc, the next block that relies on the program's G03
+    would run as a line. Which mode is in force depends on the switch: refused, naming it."""
+    text = f"G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nG03 X40. Z-10. R10.\n{deleted}\nX60. Z-20. R10.\nG00 X100.\n"
+    with pytest.raises(SafetyError) as info:
+        rewrite(text, radial(0.002, lines={4}), mode="line", tolerance=0.001)
+    assert info.value.location.line == 6 and "relies on the modal motion code" in info.value.message
+    out, _ = rewrite(text.replace(deleted, deleted.replace("/2 ", "").lstrip("/")), radial(0.002, lines={4}),
+                     mode="line", tolerance=0.001)  # without '/': the mode is the block's, and nothing is refused
+    assert "X60. Z-20. R10." in out
+
+
+def test_a_block_delete_block_that_changes_nothing_leaves_the_mode_written_before_it():
+    text = "G18 G21 G99 F0.1\nG00 X20. Z5.\nG01 Z0.\nG03 X40. Z-10. R10.\n/M09\nX60. Z-20. R10.\nG00 X100.\n"
+    out, _ = rewrite(text, radial(0.002, lines={4}), mode="line", tolerance=0.001)
+    lines = out.splitlines()
+    assert "/M09" in lines and "G03 X60. Z-20. R10." in lines  # the program's G03 written back in front

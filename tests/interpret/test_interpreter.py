@@ -348,6 +348,55 @@ def test_subprogram_call_and_block_delete_warn():
     assert "M98" in text and "block delete" in text
 
 
+@pytest.mark.parametrize("deleted", ["/M09", "/M01", "/M08 M05", "/2 M00", "/N50 M09 (COOLANT OFF)", "/G04 U1.",
+                                     "/G04 P500", "/G01", "/G99", "/G18", "/S800", "/T0101", "/F0.2", "/G21 G40",
+                                     "/ M09", "/G54"])
+def test_a_block_delete_block_that_changes_nothing_keeps_the_position_known(deleted):
+    """Run or skipped, a block that moves nothing and leaves every mode and modal value as it
+    found them (the same tool, feed, speed, units...) leaves the tool where it was: the move
+    after it starts from a known point, and only the '/' block itself is left as it is."""
+    reporter = Reporter()
+    program = "G18 G21 G40 G54 G99 T0101 F0.2 S800\nG00 X100. Z10.\nG01 X50. Z0.\n" + deleted + "\nX40. Z-5.\n"
+    result = steps(program, reporter)
+    after = result[-1].moves[0]
+    assert (after.x0, after.z0) == (25.0, 0.0) and after.exact
+    assert not any("block delete" in w.message for w in reporter.warnings)
+    assert result[-1].modal == result[-3].modal
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 399).filter(lambda m: m not in (2, 30, 98, 99, 198)), st.sampled_from(["/", "/2 ", "/9"]),
+       st.booleans())
+def test_any_machine_m_code_behind_block_delete_keeps_the_position_known(number, switch, dwell):
+    """The class: an M code of the machine (coolant, stops, spindle, chuck...) alone or with a
+    dwell behind any block delete switch moves nothing and changes no mode."""
+    reporter = Reporter()
+    block = f"{switch}M{number:02d}" + (" G04 U0.5" if dwell else "")
+    result = steps("G18 G21 G99 F0.2\nG00 X100. Z10.\nG01 X50. Z0.\n" + block + "\nX40. Z-5.\n", reporter)
+    assert (result[-1].moves[0].x0, result[-1].moves[0].z0) == (25.0, 0.0)
+    assert not any("block delete" in w.message for w in reporter.warnings)
+
+
+@pytest.mark.parametrize("deleted, mode_unknown", [
+    ("/G01 X80.", False), ("/U-2.", False), ("/G00", True), ("/G02 X50. Z-5. R5.", True), ("/G98", False),
+    ("/G20", False), ("/T0202", False), ("/F0.1", False), ("/S500", False), ("/G55", False),
+    ("/M98 P1000", False), ("/M99", False), ("/G50 X100. Z0.", False), ("/G28 U0.", False), ("/G10 P0 Z1.", False),
+    ("/G65 P9010 A1.", False), ("/G41", False), ("/G#1", True), ("/M30", False),
+])
+def test_a_block_delete_block_that_moves_or_changes_a_mode_makes_the_position_depend_on_the_switch(deleted,
+                                                                                                   mode_unknown):
+    """What follows depends on the operator's switch: the block passes through with a warning,
+    the position unknown after it; after a motion code behind '/' the motion mode is unknown too,
+    so that no block written later relies on one the switch decides."""
+    reporter = Reporter()
+    program = "G18 G21 G40 G54 G99 T0101 F0.2 S800\nG01 X100. Z10.\nG01 X50. Z0.\n" + deleted + "\nG01 X40. Z-5.\n"
+    result = steps(program, reporter)
+    assert result[-1].moves[0].x0 is None or result[-1].moves[0].z0 is None
+    assert any("block delete" in w.message and w.location.line == 4 for w in reporter.warnings)
+    assert (result[-2].modal.motion is None) is mode_unknown
+    assert result[-2].modal.tool == 1 and result[-2].modal.feed == 0.2  # the state as if skipped, never guessed
+
+
 @pytest.mark.parametrize("call", ["G65 P9010 A1. B2", "G66 P9010 A1.\nX20. Z1.\nG67"])
 def test_macro_calls_with_number_arguments_warn_and_lose_the_position(call):
     """Arguments are any numbers (no format alarm); what the macro does is not interpreted."""

@@ -83,10 +83,39 @@ def test_block_delete_levels():
     assert parse("/3 G00 X1.").delete == 3
 
 
-def test_nested_comments():
-    block = parse("(   #500 = TIPO de pieza (1-6, 0 = sin pieza)   )")
-    assert block.kind == BLOCK and not block.codes
-    assert block.comments[0].text.startswith("(   #500")
+@pytest.mark.parametrize("text, col, words", [
+    ("(   #500 = TIPO de pieza (1-6, 0 = sin pieza)   )", 26, "'(' inside a comment"),
+    ("(a (b) c)", 4, "'(' inside a comment"),
+    ("G01 X10. (A (B (C) D) E)", 13, "'(' inside a comment"),
+    ("M09 (A (B) C", 8, "'(' inside a comment"),
+    ("O1000 (A (B))", 10, "'(' inside a comment"),
+    ("#1 = 1 (A(B))", 10, "'(' inside a comment"),
+    ("M09; (A (B))", 9, "'(' inside a comment"),
+    ("(unclosed", 1, "comment is not closed"),
+    ("G01 X10. (unclosed", 10, "comment is not closed"),
+    ("G01 X1. (A)(B", 12, "comment is not closed"),
+    ("(a)b)", 5, "')' without a '('"),
+])
+def test_a_comment_inside_a_comment_or_left_open_is_refused_at_its_parenthesis(text, col, words):
+    """FANUC comments do not nest: the control ends one at its first ')' and reads the rest as
+    words. One error, at the inner '(' (or the unclosed one), with the remedy."""
+    with pytest.raises(ProgramSyntaxError) as info:
+        parse(text)
+    assert info.value.location.col == col
+    assert info.value.message.startswith(words)
+    assert "take the inner parentheses out" in info.value.message or "')'" in info.value.message
+
+
+@pytest.mark.parametrize("text, col", [("G01 X10. %", 10), ("N10 %", 5), ("G01 X1. % (A)", 9), ("M30%", 4)])
+def test_a_percent_inside_a_block_is_refused_as_the_end_of_the_tape(text, col):
+    with pytest.raises(ProgramSyntaxError) as info:
+        parse(text)
+    assert info.value.location.col == col
+    assert "'%' inside a block: '%' is the end of the tape" in info.value.message
+
+
+def test_a_percent_inside_a_comment_is_text():
+    assert parse("G01 X10. (50% FEED)").comments[0].text == "(50% FEED)"
 
 
 def test_macro_assignment_and_expression_precedence():
@@ -181,7 +210,7 @@ def test_refusals_name_the_column(text, col, words):
 
 def test_lossless_tokens_rebuild_the_line():
     """Every character of a parsed line is in a token or in the white space between tokens."""
-    text = "N10\tG01 X 10. (c (n) ) z-2.;  (end)"
+    text = "N10\tG01 X 10. (c [n] ) z-2.;  (end)"
     tokens = _tokens(text)
     rebuilt, last = [], 0
     for token in tokens:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from postproc.diagnostics import Reporter
 from postproc.interpret.program import interpret_source
 from postproc.syntax.source import Source
@@ -78,3 +80,16 @@ def test_each_program_runs_from_its_number_to_its_first_end_after_a_block():
         assert labels.in_program_of(10, 5) == [8] and labels.in_program_of(10, 10) == [8, 10]
         assert labels.in_program_of(20, 11) == [] and labels.in_program_of(20, 13) == [13]
         assert labels.in_program_of(30, 2) == [] and labels.in_program_of(30, 16) == [16]
+
+
+@pytest.mark.parametrize("head", ["%\n", "\ufeff%\n", " %\n", "", "(NO OPENING MARK)\n"])
+def test_nothing_after_the_end_of_the_tape_is_a_label_a_program_or_an_end(head):
+    """The control reads nothing after the closing '%' (the second one, or the first after any
+    other text): a sequence number, a program number or an M30 there is not in the program."""
+    text = head + "O1000\nN10 G00 X1.\nG01 Z-1. F0.1\n%\nN10 X2.\nN20 X3.\nO2000\nM30\n%\n"
+    first = head.count("\n") + 1  # the line of O1000
+    with Source.from_text(text.encode("utf-8"), "t.nc") as source:
+        labels = source.labels
+        assert labels.lines == {10: [first + 1]} and labels.counts == {10: 1}
+        assert labels.unread == {10: first + 4, 20: first + 5}
+        assert labels.program_of(first + 1) == ("O1000", first, None)
