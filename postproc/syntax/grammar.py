@@ -114,7 +114,7 @@ def _explain(exc: LarkError, text: str) -> tuple[str, int]:
         char = text[col] if col < len(text) else ""
         before = text[:col].rstrip(" \t")
         if char == "(":
-            return _explain_comment(text, col)
+            return "comment is not closed: '(' without its ')' on its line: close it with ')'", col
         if char == "%":
             return _PERCENT_IN_BLOCK, col
         if char == ")":
@@ -171,17 +171,6 @@ def _explain(exc: LarkError, text: str) -> tuple[str, int]:
 _PERCENT_IN_BLOCK = ("'%' inside a block: '%' is the end of the tape (end of record), where the control stops reading, "
                      "even in the middle of a block; it stands on a line of its own after the program's last block: "
                      "delete it here, or give it a line of its own where the tape ends")
-
-
-def _explain_comment(text: str, col: int) -> tuple[str, int]:
-    """A '(' the grammar could not close: a comment inside a comment, or one left open."""
-    inner = text.find("(", col + 1)
-    close = text.find(")", col + 1)
-    if inner != -1 and (close == -1 or inner < close):
-        return ("'(' inside a comment: FANUC comments do not nest; the control ends the comment at its first ')' "
-                "and reads what follows as words: take the inner parentheses out of the comment (write '-' or "
-                "'[' ']' instead)"), inner
-    return "comment is not closed: '(' without its ')' on its line: close it with ')'", col
 
 
 _KEYWORD_AT_END = re.compile(r"(?i)(goto|then|do|end|while|wh|if)$")

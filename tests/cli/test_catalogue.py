@@ -56,9 +56,6 @@ PROGRAMS = [
     ("#1 = 5 X1.\n", "1:1: error: a macro statement must stand alone in its block (FANUC alarm PS0114)"),
     ("#1 = 1 / 0\n", "1:1: error: macro expression: division by zero (FANUC alarm PS0112)"),
     ("G00 X1. (open\n", "1:9: error: comment is not closed: '(' without its ')' on its line: close it with ')'"),
-    ("G00 X1. (A (B) C)\n", "1:12: error: '(' inside a comment: FANUC comments do not nest; the control ends the "
-                             "comment at its first ')' and reads what follows as words: take the inner parentheses out "
-                             "of the comment (write '-' or '[' ']' instead)"),
     ("G00 X1. %\n", "1:9: error: '%' inside a block: '%' is the end of the tape (end of record), where the control stops "
                     "reading, even in the middle of a block; it stands on a line of its own after the program's last "
                     "block: delete it here, or give it a line of its own where the tape ends"),

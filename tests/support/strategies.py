@@ -35,7 +35,10 @@ def _case(draw, letter: str) -> str:
 @st.composite
 def comments(draw) -> str:
     text = draw(st.text(st.characters(blacklist_characters="()\r\n\x00", blacklist_categories=("Cs",)), max_size=20))
-    return f"({text})"  # FANUC comments do not nest
+    if draw(st.integers(0, 5)) == 0:
+        inner = draw(st.text("ABC 123-", max_size=6))
+        text = f"{text}({inner}){text[:3]}"
+    return f"({text})"
 
 
 @st.composite

@@ -77,7 +77,7 @@ def test_arbitrary_fragments_agree_or_are_refused_by_both(parts):
 
 
 @pytest.mark.parametrize("text", ["%", " % ", "%\t", "O1234", "o0001 (PART)", "O1234;", "O1234 (X) ;", "O 12",
-                                  "O12(A-B)", "%(C)", "<NAME>", "O1234 ; (C)",
+                                  "O12(A(B))", "%(C)", "<NAME>", "O1234 ; (C)",
                                   "O1234; (C) ;;", "%;"])
 def test_tape_marks_and_headers_agree(text):
     _agree(text)

@@ -83,27 +83,28 @@ def test_block_delete_levels():
     assert parse("/3 G00 X1.").delete == 3
 
 
+@pytest.mark.parametrize("text", ["(   #500 = TIPO de pieza (1-6, 0 = sin pieza)   )", "(a (b) c)",
+                                  "G01 X10. (A (B (C) D) E)", "O1000 (A (B))", "#1 = 1 (A(B))", "M09; (A (B))"])
+def test_nested_comments(text):
+    """Real programs nest comments (a macro program's notes on its variables): read, kept."""
+    block = parse(text)
+    assert "".join(comment.text for comment in block.comments).startswith(text[text.index("("):][:6])
+
+
 @pytest.mark.parametrize("text, col, words", [
-    ("(   #500 = TIPO de pieza (1-6, 0 = sin pieza)   )", 26, "'(' inside a comment"),
-    ("(a (b) c)", 4, "'(' inside a comment"),
-    ("G01 X10. (A (B (C) D) E)", 13, "'(' inside a comment"),
-    ("M09 (A (B) C", 8, "'(' inside a comment"),
-    ("O1000 (A (B))", 10, "'(' inside a comment"),
-    ("#1 = 1 (A(B))", 10, "'(' inside a comment"),
-    ("M09; (A (B))", 9, "'(' inside a comment"),
+    ("M09 (A (B) C", 5, "comment is not closed"),
     ("(unclosed", 1, "comment is not closed"),
     ("G01 X10. (unclosed", 10, "comment is not closed"),
     ("G01 X1. (A)(B", 12, "comment is not closed"),
     ("(a)b)", 5, "')' without a '('"),
 ])
-def test_a_comment_inside_a_comment_or_left_open_is_refused_at_its_parenthesis(text, col, words):
-    """FANUC comments do not nest: the control ends one at its first ')' and reads the rest as
-    words. One error, at the inner '(' (or the unclosed one), with the remedy."""
+def test_a_comment_left_open_is_refused_at_its_parenthesis(text, col, words):
+    """One error, at the '(' left open on its line (or a ')' that opens nothing), with the remedy."""
     with pytest.raises(ProgramSyntaxError) as info:
         parse(text)
     assert info.value.location.col == col
     assert info.value.message.startswith(words)
-    assert "take the inner parentheses out" in info.value.message or "')'" in info.value.message
+    assert "')'" in info.value.message
 
 
 @pytest.mark.parametrize("text, col", [("G01 X10. %", 10), ("N10 %", 5), ("G01 X1. % (A)", 9), ("M30%", 4)])
@@ -210,7 +211,7 @@ def test_refusals_name_the_column(text, col, words):
 
 def test_lossless_tokens_rebuild_the_line():
     """Every character of a parsed line is in a token or in the white space between tokens."""
-    text = "N10\tG01 X 10. (c [n] ) z-2.;  (end)"
+    text = "N10\tG01 X 10. (c (n) ) z-2.;  (end)"
     tokens = _tokens(text)
     rebuilt, last = [], 0
     for token in tokens:
