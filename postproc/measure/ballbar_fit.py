@@ -544,10 +544,37 @@ def _newey_west(matrix: np.ndarray, residuals: np.ndarray, trace: np.ndarray, al
         rho = min(max(rho, -0.97), 0.97)
         alpha = 4 * rho**2 / ((1 - rho) ** 6 * (1 + rho) ** 2)
         bandwidth = min(int(math.ceil(1.1447 * (alpha * n) ** (1 / 3))), n // 4)
-        meat += scores.T @ scores
-        for lag in range(1, bandwidth + 1):
-            weight = 1.0 - lag / (bandwidth + 1)
-            cross = scores[lag:].T @ scores[:-lag]
-            meat += weight * (cross + cross.T)
+        if bandwidth * n <= DIRECT_LAG_PRODUCTS:
+            meat += scores.T @ scores
+            for lag in range(1, bandwidth + 1):
+                weight = 1.0 - lag / (bandwidth + 1)
+                cross = scores[lag:].T @ scores[:-lag]
+                meat += weight * (cross + cross.T)
+        else:
+            meat += _bartlett_windows(scores, bandwidth)
     count, size = matrix.shape
     return inverse @ meat @ inverse * (count / max(count - size, 1))
+
+
+DIRECT_LAG_PRODUCTS = 1 << 23  #: lags times samples up to which the lagged products are summed one lag at a time
+WINDOW_BLOCK = 1 << 16  #: windows summed at a time
+
+
+def _bartlett_windows(scores: np.ndarray, bandwidth: int) -> np.ndarray:
+    """The Bartlett-weighted sum of lagged products, ``sum over |l| <= B of (1 - |l| / (B + 1))
+    sum_t s_t s_(t+l)^T``, in time linear in the samples whatever the bandwidth B.
+
+    Each pair of samples l apart lies together in B + 1 - l of the windows of B + 1
+    consecutive samples (those at the ends cut short), so the sum is that of every window's
+    sum times its transpose, over B + 1; the window sums are differences of the running sum.
+    The lag-by-lag sum costs B passes over the samples: a long trace of correlated residuals
+    has a bandwidth of thousands of samples, and that is quadratic."""
+    n, size = scores.shape
+    running = np.zeros((n + 1, size))
+    np.cumsum(scores, axis=0, out=running[1:])
+    total = np.zeros((size, size))
+    for first in range(0, n + bandwidth, WINDOW_BLOCK):
+        ends = np.arange(first, min(first + WINDOW_BLOCK, n + bandwidth))
+        sums = running[np.minimum(ends, n - 1) + 1] - running[np.maximum(ends - bandwidth, 0)]
+        total += sums.T @ sums
+    return total / (bandwidth + 1)
