@@ -8,7 +8,6 @@ hold a Python object per row.
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
