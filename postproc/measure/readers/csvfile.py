@@ -173,8 +173,8 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
     """
     text = read_text(path)
     path = inputs.named(path)
-    lines = _lines(text)
-    _, first, _ = next(lines)
+    reading = lines(text)
+    _, first, _ = next(reading)
     if first.strip() != magic:
         other = MAGICS.get(first.strip())
         if other is not None:
@@ -184,7 +184,7 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
     allowed = allowed | COMMON_KEYS
     header: dict[str, tuple[str, int]] = {}
     extras: dict[str, str] = {}
-    for number, line, end in lines:
+    for number, line, end in reading:
         text_line = line.strip()
         if not text_line:
             continue
@@ -222,13 +222,13 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
     if values is not None:
         rows = np.arange(number + 1, number + 1 + len(values))
     else:
-        rows, values = _values_by_line(path, magic, columns, lines)
+        rows, values = _values_by_line(path, magic, columns, reading)
     if not len(values):
         raise MeasurementError("the file has no data rows", Location(path))
     return Table(path, header, extras, columns, rows, values)
 
 
-def _lines(text: str, start: int = 0, number: int = 1) -> Iterator[tuple[int, str, int]]:
+def lines(text: str, start: int = 0, number: int = 1) -> Iterator[tuple[int, str, int]]:
     """(line number, line, offset after it) of ``text`` from ``start``, split as str.splitlines
     splits (CR LF, CR and the other Unicode line ends), a block at a time, so that a long file
     is never held as a list of its lines."""
@@ -275,10 +275,10 @@ def _fast_values(data: str, width: int) -> np.ndarray | None:
     return values
 
 
-def _values_by_line(path: str, magic: str, columns: list[str], lines) -> tuple[np.ndarray, np.ndarray]:
+def _values_by_line(path: str, magic: str, columns: list[str], reading) -> tuple[np.ndarray, np.ndarray]:
     """The data rows read one line at a time; the first problem is refused at its line."""
     rows, values = array("q"), array("d")
-    for row_number, line, _ in lines:
+    for row_number, line, _ in reading:
         text = line.strip()
         if not text:
             continue
