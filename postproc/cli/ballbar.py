@@ -30,7 +30,7 @@ from ..measure.ballbar_analysis import (CircularTest, Diagnosis, Estimate, centr
 from ..measure.ballbar_fit import arc_text
 from ..diagnostics import Location, MeasurementError, Reporter, UsageError
 from ..measure.readers.ballbar import BallbarTrace
-from ..report.plotting import plot_traces
+from ..report.plotting import FIT, plot_traces
 from .common import BALLBAR, COUNT, POSITIVE, examples, guard
 
 BOTH_DIRECTIONS = ["bidirectional_circular_deviation_mm", "hysteresis_mm", "squareness_rad", "servo_mismatch_mm",
@@ -81,7 +81,8 @@ def command(files, ballbar, as_json, plot, averaging, max_deviation, no_diagnosi
         grouped = tests(centred(traces, diagnosis))
     figures = [circular_test(test) for test in grouped]
     if plot:
-        plot_traces([trace for test in grouped for trace in test], plot)
+        plot_traces([trace for test in grouped for trace in test], plot, test=figures[0],
+                    diagnosis=FIT if diagnosis is None else diagnosis)
     if as_json:
         click.echo(json.dumps(_result(grouped, figures, diagnosis, warnings), indent=2, allow_nan=False))
     else:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import os
+from array import array
 import sys
 from dataclasses import dataclass
 
@@ -27,7 +28,7 @@ import numpy as np
 
 from ..diagnostics import Location, MeasurementError, OptionError, Reporter, UsageError
 from ..measure.readers.ballbar import MAGIC, REPEATED, make_trace, open_ends, raw_samples, repeated_angle
-from ..measure.readers.csvfile import read_text
+from ..measure.readers.csvfile import lines as _lines, read_text
 from ..files.output import STDOUT, write_atomically
 from .common import ARC, FINITE, POSITIVE, examples, guard
 
@@ -38,12 +39,24 @@ MIN_LARGEST_UM = 0.1
 
 @dataclass
 class Table:
-    """The numbers of a plain export: rows of cells with their lines and columns."""
+    """The numbers of a plain export as arrays (no Python object per row: an export may hold
+    millions): each row's line, its values and the 1-based column each cell starts at."""
 
     path: str
     names: list[str]  #: the last header line's cells (may be empty)
-    rows: list[tuple[int, list[float], list[int]]]  #: (line, values, 1-based column of each cell)
-    lines: list[str]
+    lines: np.ndarray  #: (rows,): the line of each row
+    values: np.ndarray  #: (rows, cells)
+    columns: np.ndarray  #: (rows, cells): the 1-based column each cell starts at
+    text: str  #: the export, for the line a message shows
+
+    @property
+    def width(self) -> int:
+        return self.values.shape[1]
+
+    def where(self, row: int, cell: int) -> Location:
+        """The position of a cell, with its line, for a message."""
+        line = int(self.lines[row])
+        return Location(self.path, line, int(self.columns[row, cell]), self.text.splitlines()[line - 1])
 
 
 @click.command("import-trace", epilog=examples(
@@ -92,12 +105,11 @@ def command(file, radius, direction, center_x, center_z, feed, start_angle, capt
     raw = start_angle is not None
     picked = _columns(table, columns, raw)
     scale = 0.001 if unit == "um" else 1.0
-    deviations = np.array([values[picked[-1]] for _, values, _ in table.rows]) * scale
-    for (line, values, cols), deviation in zip(table.rows, deviations):
-        if abs(deviation) > 1.0:
-            raise MeasurementError(f"deviation {deviation:g} mm is beyond 1 mm: not a plausible ballbar reading "
-                                   f"(micrometres read as millimetres? give --unit um)",
-                                   Location(file, line, cols[picked[-1]], table.lines[line - 1]))
+    deviations = table.values[:, picked[-1]] * scale
+    beyond = np.flatnonzero(np.abs(deviations) > 1.0)
+    if beyond.size:
+        raise MeasurementError(f"deviation {deviations[beyond[0]]:g} mm is beyond 1 mm: not a plausible ballbar reading "
+                               f"(micrometres read as millimetres? give --unit um)", table.where(beyond[0], picked[-1]))
     if unit == "um" and np.abs(deviations).max() < MIN_LARGEST_UM / 1000.0:
         raise MeasurementError(f"with --unit um every deviation is within {np.abs(deviations).max() * 1000:.3g} um, "
                                f"below {MIN_LARGEST_UM:g} um: no ballbar reads a machine that round (millimetres "
@@ -111,67 +123,80 @@ def command(file, radius, direction, center_x, center_z, feed, start_angle, capt
         capture = 360.0 if capture_arc is None else capture_arc
         problem = open_ends(deviations) if capture == 360.0 else None
         if problem:
-            line, _, cols = table.rows[-1]
             raise MeasurementError(f"{problem}; give the arc they span with --capture-arc",
-                                   Location(file, line, cols[picked[-1]], table.lines[line - 1]))
+                                   table.where(len(deviations) - 1, picked[-1]))
         header |= {"start_angle_deg": f"{start_angle:.10g}", "capture_arc_deg": f"{capture:.10g}"}
         angles, samples = raw_samples(deviations, start_angle, capture, direction == "cw", 6, reporter, file)
-        rows = ["deviation_mm"] + [f"{value:.10g}" for value in deviations]
+        rows = _rows("deviation_mm", deviations)
     else:
-        angles = angle_offset + sign * np.array([values[picked[0]] for _, values, _ in table.rows])
+        angles = angle_offset + sign * table.values[:, picked[0]]
         again = repeated_angle(np.mod(angles, 360.0))
         if again is not None:
-            line, _, cols = table.rows[again[0]]
-            raise MeasurementError(f"angle {angles[again[0]]:g} deg again (first on line {table.rows[again[1]][0]}): "
-                                   f"{REPEATED}",
-                                   Location(file, line, cols[picked[0]], table.lines[line - 1]))
+            raise MeasurementError(f"angle {angles[again[0]]:g} deg again (first on line {table.lines[again[1]]}): "
+                                   f"{REPEATED}", table.where(again[0], picked[0]))
         samples = deviations
-        rows = ["angle_deg,deviation_mm"] + [f"{a:.10g},{d:.10g}" for a, d in zip(np.mod(angles, 360.0), deviations)]
+        rows = _rows("angle_deg,deviation_mm", np.mod(angles, 360.0), deviations)
     # the trace postproc's reader will make of it, refused here with the export's name if it is none
     make_trace(file, radius, direction, angles, samples, (center_x, center_z), feed, centered, raw,
                averaging=6 if raw else 1)
     if centered:
         header["centered"] = "true"
     header["x-imported-from"] = os.path.basename(file)
-    text = "\n".join([MAGIC, *(f"# {key} = {value}" for key, value in header.items()), *rows]) + "\n"
+    text = "\n".join([MAGIC, *(f"# {key} = {value}" for key, value in header.items()), rows]) + "\n"
     write_atomically(output, text.encode())
     reporter.close()
 
 
+def _rows(names: str, *columns: np.ndarray) -> str:
+    """The CSV header row and the data rows (10 significant digits), a block at a time."""
+    block = 1 << 16
+    parts = [names]
+    for first in range(0, len(columns[0]), block):
+        parts.append("\n".join(",".join(f"{value:.10g}" for value in row)
+                               for row in zip(*(column[first: first + block].tolist() for column in columns))))
+    return "\n".join(parts)
+
+
 def read_export(path: str, delimiter: str = "auto", decimal_comma: bool = False) -> Table:
     """The rows of numbers of a plain export, each cell placed; a bad one refused at its line and column."""
-    lines = read_text(path).splitlines()
-    separator = _separator(lines, delimiter, decimal_comma)
+    whole = read_text(path)
+    separator = _separator(whole, delimiter, decimal_comma)
     names: list[str] = []
-    rows: list[tuple[int, list[float], list[int]]] = []
-    for number, line in enumerate(lines, 1):
+    numbers, values, columns = array("q"), array("d"), array("q")
+    width = 0
+    for number, line, _ in _lines(whole):
         text = line.strip()
         if not text or text.startswith("#"):
             continue
         cells = _cells(line, separator)
-        values = [_number(cell, decimal_comma) for cell, _ in cells]
-        if all(value is not None for value in values):
-            if rows and len(cells) != len(rows[0][1]):
-                raise MeasurementError(f"{len(cells)} cells where the rows above have {len(rows[0][1])}",
+        row = [_number(cell, decimal_comma) for cell, _ in cells]
+        if all(value is not None for value in row):
+            if numbers and len(cells) != width:
+                raise MeasurementError(f"{len(cells)} cells where the rows above have {width}",
                                        Location(path, number, cells[-1][1], line))
-            rows.append((number, values, [col for _, col in cells]))
+            width = len(cells)
+            numbers.append(number)
+            values.extend(row)
+            columns.extend(col for _, col in cells)
             continue
-        if rows:
-            bad = next(i for i, value in enumerate(values) if value is None)
+        if numbers:
+            bad = next(i for i, value in enumerate(row) if value is None)
             cell, col = cells[bad]
-            text_line = all(value is None for value in values)
+            text_line = all(value is None for value in row)
             raise MeasurementError(f"{cell!r} is not a finite number"
                                    + (" (a line of text after the data started?)" if text_line else ""),
                                    Location(path, number, col, line))
         names = [cell.strip().strip('"').lower() for cell, _ in cells]
-    if not rows:
+    if not numbers:
         raise MeasurementError("no rows of numbers in the file (numbers written 1,25 need --decimal-comma; cells "
                                "separated otherwise than by tab, semicolon, comma or spaces need --delimiter)",
                                Location(path))
-    return Table(path, names, rows, lines)
+    count = len(numbers)
+    return Table(path, names, np.array(numbers, dtype=np.int64), np.array(values).reshape(count, width),
+                 np.array(columns, dtype=np.int64).reshape(count, width), whole)
 
 
-def _separator(lines: list[str], delimiter: str, decimal_comma: bool) -> str | None:
+def _separator(text: str, delimiter: str, decimal_comma: bool) -> str | None:
     """The cell separator: the one asked for, or the first of tab, semicolon, comma the data use; None: spaces."""
     if delimiter != "auto":
         if delimiter in DELIMITERS:
@@ -179,11 +204,23 @@ def _separator(lines: list[str], delimiter: str, decimal_comma: bool) -> str | N
         if len(delimiter) != 1 or delimiter.isdigit() or delimiter in ".-+":
             raise UsageError(f"--delimiter {delimiter!r}: give auto, comma, semicolon, tab, space or one character")
         return delimiter
-    sample = [line for line in lines if line.strip() and not line.lstrip().startswith("#")][-5:]
+    sample = _last_rows(text, 5)
     for candidate in ("\t", ";") + (() if decimal_comma else (",",)):
         if sample and all(candidate in line for line in sample):
             return candidate
     return None
+
+
+def _last_rows(text: str, count: int) -> list[str]:
+    """The last ``count`` lines that are neither blank nor a comment, from the end of the text."""
+    tail = 1 << 12
+    while True:
+        lines = text[-tail:].splitlines()
+        whole = tail >= len(text)
+        sample = [line for line in (lines if whole else lines[1:]) if line.strip() and not line.lstrip().startswith("#")]
+        if whole or len(sample) >= count:
+            return sample[-count:]
+        tail *= 4
 
 
 def _cells(line: str, separator: str | None) -> list[tuple[str, int]]:
@@ -214,7 +251,7 @@ def _number(cell: str, decimal_comma: bool) -> float | None:
 
 def _columns(table: Table, spec: str | None, raw: bool) -> list[int]:
     """0-based indices of (angle, deviation), or of (deviation,) for raw readings."""
-    width = len(table.rows[0][1])
+    width = table.width
     wanted = 1 if raw else 2
     if spec is None:
         if width == 1 and not raw:

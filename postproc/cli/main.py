@@ -617,7 +617,7 @@ def _review(pipeline, name: str, diff: bool) -> bool:
 def fit(plugins, ballbar, probe, calibration, options, machine, note, force, output):
     """Fit a compensator's model from measurements and save it (apply it with compensate --model)."""
     plugins, _, options = _compensation(plugins, None, options)
-    from ..compensate.models import dumps
+    from ..compensate.models import saved
     from ..files.output import write_atomically
     from ..compensate.pipeline import Pipeline
     from ..compensate.request import Request
@@ -628,7 +628,8 @@ def fit(plugins, ballbar, probe, calibration, options, machine, note, force, out
     request = Request(plugins=list(plugins), ballbar=list(ballbar), probe=list(probe), calibration=calibration,
                       options=list(options), force=force)
     pipeline = Pipeline(request, _profile(machine), reporter)
-    write_atomically(output, dumps(pipeline.saved_model(note)).encode())
+    measured = [*ballbar, *probe, *([calibration] if calibration else [])]
+    write_atomically(output, saved(pipeline.saved_model(note), Location(measured[0] if measured else output)))
     reporter.close()
 
 

@@ -106,6 +106,19 @@ def dumps(data: dict[str, Any]) -> str:
         raise ModelError(f"the model cannot be saved as JSON: {exc}") from None
 
 
+def saved(data: dict[str, Any], where: Location) -> bytes:
+    """A model's file, refused (naming ``where``, the measurements) when it would be over the
+    MAX_BYTES that reading a model allows: a model keeps the traces it applies (ballbar-inverse,
+    iterative), and a trace of millions of samples would make a file no command reads back."""
+    data_bytes = dumps(data).encode()
+    if len(data_bytes) > MAX_BYTES:
+        raise ModelError(f"the model would be {len(data_bytes) / 2**20:.0f} MiB, over the {MAX_BYTES / 2**20:g} MiB "
+                         "a model file may be (compensate --model refuses a larger one): it keeps the measurements' "
+                         "samples; fit from traces of fewer samples (an export at a coarser angle step), or fit and "
+                         "apply in one run: postproc compensate PROGRAM --plugin NAME --ballbar FILE ...", where)
+    return data_bytes
+
+
 def read_back(data: dict[str, Any]) -> dict[str, Any]:
     """A model's content as :func:`read` will read it from its file, held to what read holds a
     file to: what ``postproc fit`` writes is checked before it is written."""

@@ -39,7 +39,7 @@ shrinks, and there is a point where a parameter is a guess.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -211,7 +211,9 @@ class Samples:
             parts["feed"].append(np.full(size, np.nan if trace.feed is None else float(trace.feed)))
             parts["along"].append(np.mod(trace.angles - trace.arc[0], 360.0))
             parts["measured"].append(as_measured(trace))
-        flat = {key: np.concatenate(values) for key, values in parts.items()}
+        # one key at a time, each trace's part let go as it is copied: no second copy of the samples
+        flat = {key: values[0] if len(values) == 1 else np.concatenate(values) for key, values in
+                ((key, parts.pop(key)) for key in list(parts))}
         flat["trace"] = flat["trace"].astype(int)
         # exactly at a reversal an axis still lags the way it last travelled (its play not yet
         # taken up): just before theta in time, the tangent's sign there is cos's (X) and sin's (Z)
@@ -309,12 +311,16 @@ class JointFit:
 
 def design(samples: Samples, unit_errors: Mapping[str, tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
     """The bar's reading of each parameter at unit value, then each mount's centre x and z."""
-    columns = [np.broadcast_to(ex, samples.cos.shape) * samples.cos + np.broadcast_to(ez, samples.sin.shape) * samples.sin
-               for ex, ez in unit_errors.values()]
+    matrix = np.empty((len(samples.cos), len(unit_errors) + 2 * len(samples.groups)))
+    for column, (ex, ez) in enumerate(unit_errors.values()):
+        np.add(np.broadcast_to(ex, samples.cos.shape) * samples.cos, np.broadcast_to(ez, samples.sin.shape) * samples.sin,
+               out=matrix[:, column])
     for mount in range(len(samples.groups)):
         on = samples.mount == mount
-        columns += [np.where(on, samples.cos, 0.0), np.where(on, samples.sin, 0.0)]
-    return np.column_stack(columns)
+        column = len(unit_errors) + 2 * mount
+        matrix[:, column] = np.where(on, samples.cos, 0.0)
+        matrix[:, column + 1] = np.where(on, samples.sin, 0.0)
+    return matrix
 
 
 def fit(samples: Samples, unit_errors: Mapping[str, tuple[np.ndarray, np.ndarray]]) -> JointFit:
@@ -347,7 +353,7 @@ def fit(samples: Samples, unit_errors: Mapping[str, tuple[np.ndarray, np.ndarray
     kept = residuals[used]
     variance = float(kept @ kept) / (used.sum() - size)
     covariance = inverse * variance
-    correlated = _newey_west(matrix[used], kept, samples.trace[used], samples.along[used], inverse)
+    correlated = _newey_west(matrix, residuals, used, samples.trace, samples.along, inverse)
     covariance = _larger(covariance, correlated)
     reach = np.array([float(np.max(np.hypot(np.broadcast_to(ex, samples.cos.shape),
                                             np.broadcast_to(ez, samples.cos.shape))))
@@ -396,7 +402,12 @@ def _solve(matrix: np.ndarray, measured: np.ndarray, used: np.ndarray, every: tu
     """The least-squares solution over the used rows, (A^T A)^-1 and the singular values of the
     column-scaled design; Inseparable when a direction of the parameters is not seen."""
     where = Location(traces[0].path)
-    rows = matrix[used]
+    if len(matrix) > BLOCKED_SAMPLES:
+        size = matrix.shape[1]
+        reduced = _triangular(matrix, measured, used)
+        rows, target = reduced[:size, :size], reduced[:size, size]
+    else:
+        rows, target = matrix[used], measured[used]
     norms = np.linalg.norm(rows, axis=0)
     unseen = [every[i] for i in np.flatnonzero(norms == 0.0)]
     if unseen:
@@ -409,9 +420,29 @@ def _solve(matrix: np.ndarray, measured: np.ndarray, used: np.ndarray, every: tu
         raise Inseparable(f"on {arcs_text(traces)}, {_names(involved)} cannot be told apart "
                           f"({'from each other' if len(involved) > 1 else 'from the rest'}); measure "
                           f"{more_evidence(traces, 'tests about more centres')}", where, model)
-    solution = right.T @ ((left.T @ measured[used]) / singular) / norms
+    solution = right.T @ ((left.T @ target) / singular) / norms
     inverse = (right.T / singular**2) @ right / np.outer(norms, norms)
     return solution, inverse, singular
+
+
+BLOCKED_SAMPLES = 1 << 17  #: above this many samples the design is reduced a block at a time (:func:`_triangular`)
+SOLVE_BLOCK = 1 << 15  #: samples reduced at a time
+
+
+def _triangular(matrix: np.ndarray, measured: np.ndarray, used: np.ndarray) -> np.ndarray:
+    """R of the QR decomposition of the used rows of ``[matrix | measured]``, a block of rows at a
+    time: the least-squares problem in (columns + 1) rows instead of one per sample.
+
+    The design Q R has R's singular values and right vectors, and its least-squares solution
+    is R's with Q^T b (R's last column) for b: :func:`_solve` decomposes that small R instead
+    of a design of millions of rows and keeps no more than a block of them at once. Below
+    BLOCKED_SAMPLES the design is decomposed whole, as it always was (the same digits)."""
+    reduced = np.zeros((0, matrix.shape[1] + 1))
+    for first in range(0, len(matrix), SOLVE_BLOCK):
+        keep = used[first: first + SOLVE_BLOCK]
+        block = np.column_stack([matrix[first: first + SOLVE_BLOCK][keep], measured[first: first + SOLVE_BLOCK][keep]])
+        reduced = np.linalg.qr(np.vstack([reduced, block]), mode="r")
+    return reduced
 
 
 SPIKE_SIGMAS = 8.0  #: a residual this many robust sigmas off its trace's ...
@@ -524,19 +555,19 @@ def _larger(first: np.ndarray, second: np.ndarray) -> np.ndarray:
     return first * np.outer(scale, scale)
 
 
-def _newey_west(matrix: np.ndarray, residuals: np.ndarray, trace: np.ndarray, along: np.ndarray,
+def _newey_west(matrix: np.ndarray, residuals: np.ndarray, used: np.ndarray, trace: np.ndarray, along: np.ndarray,
                 inverse: np.ndarray) -> np.ndarray:
     """Covariance robust to residuals correlated along each trace (Newey-West, Bartlett weights).
 
     The bandwidth of each trace is Andrews' (1991) AR(1) plug-in, ``1.1447 (alpha n)^(1/3)`` with
     ``alpha = 4 rho^2 / ((1 - rho)^6 (1 + rho)^2)``: about 0 for white residuals, longer the
-    longer they stay alike. Samples are taken in order along the captured arc.
+    longer they stay alike. Samples are taken in order along the captured arc (the used rows
+    of ``matrix``).
     """
     meat = np.zeros((matrix.shape[1],) * 2)
-    for index in np.unique(trace):
-        rows = np.flatnonzero(trace == index)
+    for index in np.unique(trace[used]):
+        rows = np.flatnonzero((trace == index) & used)
         rows = rows[np.argsort(along[rows], kind="stable")]
-        scores = matrix[rows] * residuals[rows, None]
         e = residuals[rows]
         n = len(rows)
         denominator = float(e @ e)
@@ -544,10 +575,60 @@ def _newey_west(matrix: np.ndarray, residuals: np.ndarray, trace: np.ndarray, al
         rho = min(max(rho, -0.97), 0.97)
         alpha = 4 * rho**2 / ((1 - rho) ** 6 * (1 + rho) ** 2)
         bandwidth = min(int(math.ceil(1.1447 * (alpha * n) ** (1 / 3))), n // 4)
-        meat += scores.T @ scores
-        for lag in range(1, bandwidth + 1):
-            weight = 1.0 - lag / (bandwidth + 1)
-            cross = scores[lag:].T @ scores[:-lag]
-            meat += weight * (cross + cross.T)
-    count, size = matrix.shape
+        if n <= BLOCKED_SAMPLES and bandwidth * n <= DIRECT_LAG_PRODUCTS:
+            scores = matrix[rows] * residuals[rows, None]
+            meat += scores.T @ scores
+            for lag in range(1, bandwidth + 1):
+                weight = 1.0 - lag / (bandwidth + 1)
+                cross = scores[lag:].T @ scores[:-lag]
+                meat += weight * (cross + cross.T)
+        else:
+            meat += _bartlett_windows(lambda a, b: matrix[rows[a:b]] * residuals[rows[a:b], None], n,
+                                      matrix.shape[1], bandwidth)
+    count, size = int(used.sum()), matrix.shape[1]
     return inverse @ meat @ inverse * (count / max(count - size, 1))
+
+
+DIRECT_LAG_PRODUCTS = 1 << 23  #: lags times samples up to which the lagged products are summed one lag at a time
+WINDOW_BLOCK = 1 << 16  #: windows summed at a time
+
+
+def _bartlett_windows(scores: Callable[[int, int], np.ndarray], n: int, size: int, bandwidth: int) -> np.ndarray:
+    """The Bartlett-weighted sum of lagged products of n scores (``scores(a, b)``: rows a to b),
+    ``sum over |l| <= B of (1 - |l| / (B + 1)) sum_t s_t s_(t+l)^T``, in time linear in the
+    samples whatever the bandwidth B, a block of rows at a time.
+
+    Each pair of samples l apart lies together in B + 1 - l of the windows of B + 1
+    consecutive samples (those at the ends cut short), so the sum is that of every window's
+    sum times its transpose, over B + 1; a window's sum is the difference of the running sum
+    at its ends, each end read by a cursor that moves one way along the trace. The lag-by-lag
+    sum costs B passes over the samples: a long trace of correlated residuals has a bandwidth
+    of thousands of samples, and that is quadratic."""
+    ahead, behind = _Running(scores, n, size), _Running(scores, n, size)
+    total = np.zeros((size, size))
+    for first in range(0, n + bandwidth, WINDOW_BLOCK):
+        ends = np.arange(first, min(first + WINDOW_BLOCK, n + bandwidth))
+        sums = ahead.at(np.minimum(ends, n - 1) + 1) - behind.at(np.maximum(ends - bandwidth, 0))
+        total += sums.T @ sums
+    return total / (bandwidth + 1)
+
+
+class _Running:
+    """The running sum of n scores (row k: the sum of the first k), read at rows that never go
+    back, computed a block at a time and let go behind the reader."""
+
+    def __init__(self, scores: Callable[[int, int], np.ndarray], n: int, size: int):
+        self.scores, self.n = scores, n
+        self.start = 0  #: the row of held[0]
+        self.held = np.zeros((1, size))
+
+    def at(self, rows: np.ndarray) -> np.ndarray:
+        """The running sum at ``rows`` (increasing, none before an earlier call's first)."""
+        first, last = int(rows[0]), int(rows[-1])
+        while self.start + len(self.held) <= last:
+            end = self.start + len(self.held)  # the next row: the held last plus score end - 1
+            stop = min(end - 1 + WINDOW_BLOCK, self.n)
+            more = self.held[-1] + np.cumsum(self.scores(end - 1, stop), axis=0)
+            keep = min(max(first - self.start, 0), len(self.held) - 1)  # the last held row starts the next block
+            self.held, self.start = np.vstack([self.held[keep:], more]), self.start + keep
+        return self.held[rows - self.start]

@@ -35,6 +35,7 @@ COLOURS = {"ccw": "tab:blue", "cw": "tab:red"}
 BAND = 0.36  #: the outermost ring sits this fraction of the nominal radius outside the nominal circle
 A4_WIDTH_IN = 8.27  #: the polar plot prints across an A4 page
 PRINT_DPI = 150
+DRAWN_POINTS = 20000  #: points of a trace drawn at most (along_arc): a page shows far fewer
 FIT = object()  #: plot_traces(diagnosis=FIT): diagnose the traces to write the diagnosis on the plot
 DIAGNOSIS_SHOWN = ("backlash_x", "backlash_z", "scaling_x", "scaling_z", "squareness", "servo_mismatch",
                    "apparent_squareness")
@@ -242,19 +243,47 @@ def _panel(figure, lines: list[tuple[str, str | None]]) -> None:
         y -= 0.026 if (name or value) else 0.012
 
 
-def along_arc(trace: BallbarTrace) -> tuple[np.ndarray, np.ndarray]:
+def along_arc(trace: BallbarTrace, most: int = DRAWN_POINTS) -> tuple[np.ndarray, np.ndarray]:
     """Angles (degrees, increasing from the start of the captured arc, unwrapped) and deviations,
     with NaN between samples further apart than MAX_GAP_DEG so that no line crosses a gap; a
-    whole circle comes back closed."""
+    whole circle comes back closed. For drawing only: a trace of more than ``most`` samples is
+    thinned to about ``most`` (:func:`drawn`); every figure and fit takes the trace itself."""
     start, span = trace.arc
     along = np.mod(trace.angles - start, 360.0)
     start = start - 360.0 if start > 180.0 else start  # an arc across +X reads -20 .. 200, not 340 .. 560
     order = np.argsort(along, kind="stable")
     angles, deviations = start + along[order], trace.deviations[order]
     if span >= 360.0:
+        angles, deviations = drawn(angles, deviations, most)
         return np.append(angles, angles[0] + 360.0), np.append(deviations, deviations[0])
     gaps = np.flatnonzero(np.diff(angles) > MAX_GAP_DEG) + 1
+    runs = [drawn(a, d, max(2, most * len(a) // len(angles)))
+            for a, d in zip(np.split(angles, gaps), np.split(deviations, gaps))]
+    angles, deviations = (np.concatenate([part[k] for part in runs]) for k in (0, 1))
+    gaps = np.cumsum([len(part[0]) for part in runs[:-1]], dtype=int)
     return np.insert(angles, gaps, np.nan), np.insert(deviations, gaps, np.nan)
+
+
+def drawn(angles: np.ndarray, deviations: np.ndarray, most: int) -> tuple[np.ndarray, np.ndarray]:
+    """At most about ``most`` of the points of a line, chosen so that it draws as the whole: in
+    each run of consecutive points, its first and last and its lowest and highest deviation
+    (a spike stays in the drawing). A page shows a few thousand points across; a trace of
+    millions would cost matplotlib minutes and gigabytes to draw the same picture."""
+    count = len(angles)
+    if count <= most:
+        return angles, deviations
+    size = math.ceil(4 * count / most)
+    keep = np.zeros(count, dtype=bool)
+    keep[::size] = keep[size - 1::size] = True
+    keep[-1] = True
+    whole = count // size * size
+    rows = deviations[:whole].reshape(-1, size)  # a view: no copy of the trace
+    starts = np.arange(0, whole, size)
+    keep[starts + rows.argmin(axis=1)] = keep[starts + rows.argmax(axis=1)] = True
+    if whole < count:
+        tail = deviations[whole:]
+        keep[whole + tail.argmin()] = keep[whole + tail.argmax()] = True
+    return angles[keep], deviations[keep]
 
 
 def plot_deviation_vs_angle(series: Sequence[tuple[str, Sequence[float], Sequence[float]]], path: str,

@@ -107,5 +107,5 @@ def read_surface(path: str) -> Turned:
         raise table.error("a surface needs at least two points")
     negative = np.flatnonzero(points[:, 0] < 0.0)
     if negative.size:
-        raise table.error("a surface radius cannot be negative", table.rows[int(negative[0])][0])
+        raise table.error("a surface radius cannot be negative", int(table.lines[negative[0]]))
     return Turned(points)

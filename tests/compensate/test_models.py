@@ -349,3 +349,15 @@ def test_a_saved_model_whose_test_radius_no_ballbar_has_is_refused(parametric_mo
     """radius_mm in um, its SHA-256 made again: refused as the trace it came from would be."""
     stderr = _refused(_edited(parametric_model, ("radius_mm",), radius))
     assert f"radius_mm {radius:g} is above 1000 mm" in stderr and "in um" in stderr
+
+
+def test_a_model_too_large_to_read_back_is_refused_before_it_is_written(run, tmp_path, monkeypatch):
+    """A model keeps the traces it applies: one of millions of samples would be a file over the
+    64 MiB compensate --model reads. Refused with the size, the limit and the remedy; nothing written."""
+    model = tmp_path / "model.json"
+    monkeypatch.setattr(models, "MAX_BYTES", 16 * 1024)
+    result = run(*FIT, "-o", str(model))
+    assert result.exit_code == 3 and result.stdout == ""
+    assert result.stderr.startswith(f"{CCW}: error: the model would be ")
+    assert "over the 0.015625 MiB a model file may be" in result.stderr and "--plugin NAME --ballbar" in result.stderr
+    assert not model.exists()

@@ -17,8 +17,9 @@ from hypothesis import strategies as st
 
 from postproc.measure import ballbar_fit
 from postproc.measure.ballbar_analysis import diagnose, model_names
-from postproc.measure.readers.ballbar import make_trace
+from postproc.measure.readers.ballbar import make_trace, read_ballbar
 from support import machines
+from support.long_traces import peak_bytes, python_lines, write_trace
 
 #: a machine: scaling, backlash, squareness, servo mismatch (mm at the feed)
 MACHINE = {"scaling_x": 35e-6, "scaling_z": -55e-6, "backlash_x": 0.0045, "backlash_z": 0.0025,
@@ -205,3 +206,63 @@ def test_the_remedy_of_an_undetermined_fit_asks_only_for_what_the_traces_lack(di
         assert "a longer arc" in refused.message, refused.message
     else:
         assert span > 359.0  # a whole circle determines the model; no partial arc of these does
+
+
+# -- traces of hundreds of thousands of samples -------------------------------------------------------
+
+
+@settings(max_examples=40, deadline=None)
+@given(count=st.integers(2, 400), fraction=st.floats(0.0, 0.5), block=st.sampled_from([1, 3, 7, 64, 1 << 16]),
+       seed=st.integers(0, 2**16))
+def test_bartlett_windows_equal_the_lag_by_lag_sum(count, fraction, block, seed):
+    """The windowed form of the Newey-West sum, read a block at a time, is the lag-by-lag sum."""
+    rng = np.random.default_rng(seed)
+    scores = np.cumsum(rng.normal(size=(count, 3)), axis=0)
+    bandwidth = int(fraction * count)
+    direct = scores.T @ scores
+    for lag in range(1, bandwidth + 1):
+        cross = scores[lag:].T @ scores[:-lag]
+        direct += (1.0 - lag / (bandwidth + 1)) * (cross + cross.T)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(ballbar_fit, "WINDOW_BLOCK", block)
+        windows = ballbar_fit._bartlett_windows(lambda a, b: scores[a:b], count, 3, bandwidth)
+    assert np.allclose(windows, direct, rtol=1e-10, atol=1e-10 * np.abs(direct).max())
+
+
+def test_a_fit_in_blocks_is_the_fit_of_the_whole_design(monkeypatch):
+    """Above BLOCKED_SAMPLES the design is reduced by QR a block at a time: the same parameters,
+    uncertainties and refusals as the design decomposed whole (here forced on a small test)."""
+    angles = np.arange(-20.0, 200.0, 0.25)
+    rng = np.random.default_rng(7)
+    traces = [make_trace(f"{d}.csv", 100.0, d, angles, reading(angles, d, 100.0, (0.02, -0.01))
+                         + np.cumsum(rng.normal(0.0, 2e-5, angles.size))) for d in ("ccw", "cw")]
+    whole = diagnose(traces)
+    monkeypatch.setattr(ballbar_fit, "BLOCKED_SAMPLES", 10)
+    monkeypatch.setattr(ballbar_fit, "SOLVE_BLOCK", 100)
+    monkeypatch.setattr(ballbar_fit, "DIRECT_LAG_PRODUCTS", 0)
+    blocked = diagnose(traces)
+    for name, estimate in whole.parameters().items():
+        other = blocked.parameters()[name]
+        assert other.value == pytest.approx(estimate.value, rel=1e-9, abs=1e-15), name
+        assert other.sigma == pytest.approx(estimate.sigma, rel=1e-9), name
+    samples = ballbar_fit.Samples.of(traces)
+    twice = ballbar_fit.machine_errors(samples, ["scaling_x"])["scaling_x"]
+    with pytest.raises(ballbar_fit.Inseparable, match="cannot be told apart"):
+        ballbar_fit.fit(samples, {"scaling_x": twice, "again": twice})
+
+
+def test_diagnosing_long_traces_does_no_python_work_per_sample_or_lag(tmp_path):
+    """Ten times the samples of correlated residuals, about the same Python run: the Newey-West
+    sum once took a pass over the samples per lag, and the bandwidth of a long trace is
+    thousands of lags (quadratic in the samples); and at most a few arrays per sample held."""
+    lines, peaks = [], []
+    for count in (20_000, 200_000):
+        traces = [read_ballbar(str(write_trace(tmp_path / f"{count}-{d}.csv", count, d, seed=count + i)))
+                  for i, d in enumerate(("ccw", "cw"))]
+        ran, diagnosis = python_lines(diagnose, traces)
+        lines.append(ran)
+        peaks.append(peak_bytes(diagnose, traces)[0] / (2 * count))
+        assert diagnosis.scaling_x.value == pytest.approx(4e-6, abs=1e-6)
+        assert diagnosis.squareness.value == pytest.approx(12e-6, abs=2e-6)
+    assert lines[1] < 2 * lines[0] + 1000, lines
+    assert peaks[1] < 400, f"{peaks[1]:.0f} bytes per sample"

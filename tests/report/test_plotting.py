@@ -7,6 +7,8 @@ import math
 import re
 import struct
 
+import numpy as np
+
 from click.testing import CliRunner
 from hypothesis import example, given, strategies as st
 
@@ -14,7 +16,7 @@ from support import SAMPLES
 from postproc.cli.main import main
 from postproc.measure.readers.ballbar import read_ballbar
 from postproc.report.pathplot import magnification_for
-from postproc.report.plotting import BAND, plot_traces
+from postproc.report.plotting import BAND, along_arc, drawn, plot_traces
 
 CCW = SAMPLES / "ballbar" / "v40r-100-ccw.csv"
 CW = SAMPLES / "ballbar" / "v40r-100-cw.csv"
@@ -116,3 +118,34 @@ def test_the_magnification_is_a_round_number_that_keeps_the_correction_in_its_sh
         bigger = {1: 2, 2: 5, 5: 10}[round(magnification / power)] * power
         assert largest * bigger > share * size  # and the next round number would be
     assert magnification_for(0.0, size, share) == 1.0
+
+
+@given(count=st.integers(1, 5000), most=st.integers(8, 400), seed=st.integers(0, 2**16))
+def test_a_long_line_is_drawn_from_its_ends_and_every_run_s_extremes(count, most, seed):
+    """Thinning for drawing keeps the first and last point, the lowest and the highest (a spike
+    stays visible), at most about ``most`` points, in their order; a short line is left whole."""
+    rng = np.random.default_rng(seed)
+    angles = np.sort(rng.uniform(0.0, 360.0, count))
+    deviations = np.cumsum(rng.normal(size=count))
+    deviations[rng.integers(count)] += 50.0
+    kept_angles, kept = drawn(angles, deviations, most)
+    if count <= most:
+        assert kept_angles is angles and kept is deviations
+        return
+    assert len(kept) <= most + 8
+    assert kept_angles[0] == angles[0] and kept_angles[-1] == angles[-1]
+    assert kept.max() == deviations.max() and kept.min() == deviations.min()
+    assert np.all(np.diff(kept_angles) >= 0.0)
+
+
+def test_a_trace_of_a_million_samples_is_drawn_thinned_and_its_gaps_kept(tmp_path):
+    from postproc.measure.readers.ballbar import make_trace
+
+    angles = np.concatenate([np.linspace(-20.0, 90.0, 500_000, endpoint=False), np.linspace(110.0, 200.0, 500_000)])
+    deviations = 0.001 * np.sin(np.radians(angles) * 9.0)
+    trace = make_trace("long.csv", 100.0, "cw", angles, deviations, centered=True)
+    theta, shown = along_arc(trace)
+    assert len(theta) < 21_000 and np.isnan(shown).sum() == 1
+    assert np.nanmax(shown) == deviations.max() and np.nanmin(shown) == deviations.min()
+    whole = read_ballbar(str(SAMPLES / "ballbar" / "v40r-100-ccw.csv"))
+    assert len(along_arc(whole)[0]) == len(whole.angles) + 1  # a trace of the usual size: every sample drawn

@@ -159,10 +159,21 @@ REPEATED = "a second lap or run in one file? give each run of the test as a file
 
 
 def repeated_angle(angles: np.ndarray) -> tuple[int, int] | None:
-    """The first sample whose angle (modulo 360, to 1e-9 deg) an earlier one has: (it, the earlier)."""
+    """The first sample whose angle (modulo 360, to 1e-9 deg) an earlier one has: (it, the earlier).
+
+    Two angles that round alike lie within about 1e-9 deg of each other, or of 0 and 360: only
+    neighbours in sorted order that close are compared, so a trace of millions of samples is
+    sorted once and holds no Python object per sample."""
+    angles = np.asarray(angles, dtype=float)
+    if len(angles) < 2:
+        return None
+    order = np.argsort(angles, kind="stable")
+    ring = angles[order]
+    close = np.diff(np.append(ring, ring[0] + 360.0)) <= 2e-9  # each to the next, the last to the first
+    suspects = np.sort(order[close | np.roll(close, 1)])
     seen: dict[float, int] = {}
-    for index, angle in enumerate(angles):
-        key = round(float(angle) % 360.0, 9) % 360.0
+    for index in suspects.tolist():
+        key = round(float(angles[index]) % 360.0, 9) % 360.0
         if key in seen:
             return index, seen[key]
         seen[key] = index
@@ -182,12 +193,13 @@ def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6
     feed = table.number("feed_mm_min", positive=True)
     centered = table.flag("centered")
     raw = table.columns == RAW
-    deviations = np.array(table.column("deviation_mm"))
-    rows = np.array([line for line, _ in table.rows], dtype=int)
-    for (line, values), value in zip(table.rows, deviations):
-        if abs(value) > max_deviation:
-            raise table.error(f"deviation {value:g} mm is beyond {max_deviation:g} mm: not a plausible ballbar reading "
-                              "(micrometres written as millimetres?)", line)
+    deviations = table.column("deviation_mm")
+    rows = table.lines
+    beyond = np.flatnonzero(np.abs(deviations) > max_deviation)
+    if beyond.size:
+        value = float(deviations[beyond[0]])
+        raise table.error(f"deviation {value:g} mm is beyond {max_deviation:g} mm: not a plausible ballbar reading "
+                          "(micrometres written as millimetres?)", int(rows[beyond[0]]))
 
     if raw:
         start = table.number("start_angle_deg", required=True)
@@ -197,21 +209,21 @@ def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6
         problem = open_ends(deviations) if capture == 360.0 else None
         if problem:
             said = "the file says 360" if "capture_arc_deg" in table.header else "without it, 360 is assumed"
-            raise table.error(f"{problem}; give the arc they span as capture_arc_deg ({said})", table.rows[-1][0])
+            raise table.error(f"{problem}; give the arc they span as capture_arc_deg ({said})", int(rows[-1]))
         angles, deviations = raw_samples(deviations, start, capture, direction == "cw", averaging, reporter, path)
         rows = rows[::averaging][: len(deviations)]
     else:
         for key in ("start_angle_deg", "capture_arc_deg"):
             if key in table.header:
                 raise table.error(f"{key} belongs to the raw form (angles are given here)", table.header[key][1])
-        written = np.array(table.column("angle_deg"))
+        written = table.column("angle_deg")
         angles = np.mod(written, 360.0)
         again = repeated_angle(angles)
         if again is not None:
             row, first = again
             same = "" if angles[row] == written[row] else f" ({angles[row]:g} deg)"
-            raise table.error(f"angle {written[row]:g} deg{same} again (first on line {table.rows[first][0]}): "
-                              f"{REPEATED}", table.rows[row][0])
+            raise table.error(f"angle {written[row]:g} deg{same} again (first on line {rows[first]}): "
+                              f"{REPEATED}", int(rows[row]))
     return make_trace(path, radius, direction, angles, deviations, centre, feed, centered, raw, table.extras,
                       averaging if raw else 1, rows)
 

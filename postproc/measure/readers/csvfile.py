@@ -11,8 +11,14 @@ row, ``FILE: error:`` for the whole file.
 from __future__ import annotations
 
 import datetime as dt
+import io
 import math
-from dataclasses import dataclass, field
+import re
+from array import array
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
 
 from ...files import inputs
 from ...diagnostics import Location, MeasurementError
@@ -40,7 +46,8 @@ class Table:
     header: dict[str, tuple[str, int]]  #: key -> (value, line)
     extras: dict[str, str]  #: the x- keys
     columns: list[str]
-    rows: list[tuple[int, list[float]]] = field(default_factory=list)  #: (line, values)
+    lines: np.ndarray  #: the file's line of each data row
+    values: np.ndarray  #: (rows, columns): the data, as numbers
     #: the line of the CSV header row, where the header lines ended: where a missing key was due
     columns_line: int | None = None
 
@@ -50,9 +57,8 @@ class Table:
     def error(self, message: str, line: int | None = None) -> MeasurementError:
         return MeasurementError(message, self.where(line))
 
-    def column(self, name: str) -> list[float]:
-        index = self.columns.index(name)
-        return [values[index] for _, values in self.rows]
+    def column(self, name: str) -> np.ndarray:
+        return self.values[:, self.columns.index(name)].copy()
 
     # -- header values --------------------------------------------------------------
 
@@ -178,32 +184,35 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
     """Read a file of the format whose first line is ``magic``.
 
     ``allowed`` are the header keys the format knows; ``column_sets`` the header rows it
-    accepts (each a list of column names, in any order).
+    accepts (each a list of column names, in any order). The data come back as arrays: a trace
+    of millions of samples is read in C (:func:`_fast_values`) and holds no Python object per
+    row; what that cannot read (a blank line, a comment, a bad cell) is read line by line, which
+    finds the problem and names its line.
     """
-    lines = read_text(path).splitlines()
+    text = read_text(path)
     path = inputs.named(path)
-    first = lines[0].strip()
-    if first != magic:
-        other = MAGICS.get(first)
+    reading = lines(text)
+    _, first, _ = next(reading)
+    if first.strip() != magic:
+        other = MAGICS.get(first.strip())
         if other is not None:
             raise MeasurementError(f"this is a postproc {other}, not a {MAGICS[magic]}", Location(path, 1))
-        raise MeasurementError(f"the first line must be {magic!r}, not {lines[0][:40]!r}", Location(path, 1))
+        raise MeasurementError(f"the first line must be {magic!r}, not {first[:40]!r}", Location(path, 1))
 
     allowed = allowed | COMMON_KEYS
     header: dict[str, tuple[str, int]] = {}
     extras: dict[str, str] = {}
-    number = 1
-    for number in range(2, len(lines) + 1):
-        text = lines[number - 1].strip()
-        if not text:
+    for number, line, end in reading:
+        text_line = line.strip()
+        if not text_line:
             continue
-        if not text.startswith("#"):
+        if not text_line.startswith("#"):
             break
-        body = text[1:].strip()
+        body = text_line[1:].strip()
         if not body:
             continue
         if "=" not in body:
-            raise MeasurementError(f"a header line must read '# key = value', not {text!r}", Location(path, number))
+            raise MeasurementError(f"a header line must read '# key = value', not {text_line!r}", Location(path, number))
         key, value = (part.strip() for part in body.split("=", 1))
         if key.startswith("x-"):
             extras[key] = value
@@ -222,14 +231,73 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
     else:
         raise MeasurementError("no CSV header row and no data after the header lines", Location(path))
 
-    columns = [name.strip() for name in lines[number - 1].split(",")]
+    columns = [name.strip() for name in line.split(",")]
     if sorted(columns) not in [sorted(c) for c in column_sets]:
         expected = " or ".join(",".join(c) for c in column_sets)
-        raise MeasurementError(f"the CSV header row must be {expected}, not {lines[number - 1].strip()!r}"
+        raise MeasurementError(f"the CSV header row must be {expected}, not {line.strip()!r}"
                                f"{CONVERTERS.get(magic, '')}", Location(path, number))
-    table = Table(path, header, extras, columns, columns_line=number)
-    for row_number in range(number + 1, len(lines) + 1):
-        text = lines[row_number - 1].strip()
+    values = _fast_values(text[end:], len(columns))
+    if values is not None:
+        rows = np.arange(number + 1, number + 1 + len(values))
+    else:
+        rows, values = _values_by_line(path, magic, columns, reading)
+    if not len(values):
+        raise MeasurementError("the file has no data rows", Location(path))
+    return Table(path, header, extras, columns, rows, values, columns_line=number)
+
+
+def lines(text: str, start: int = 0, number: int = 1) -> Iterator[tuple[int, str, int]]:
+    """(line number, line, offset after it) of ``text`` from ``start``, split as str.splitlines
+    splits (CR LF, CR and the other Unicode line ends), a block at a time, so that a long file
+    is never held as a list of its lines."""
+    block = 1 << 16
+    while start < len(text):
+        parts = text[start: start + block].splitlines(keepends=True)
+        if start + block < len(text):
+            parts.pop()  # may be cut short (or a CR LF cut in two): read again with the next block
+            if not parts:
+                block *= 2
+                continue
+        for part in parts:
+            start += len(part)
+            yield number, part.rstrip(_LINE_ENDS), start
+            number += 1
+
+
+#: what str.splitlines ends a line at
+_LINE_ENDS = "\r\n\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"
+#: what the data of a plain numeric table is made of, and a blank line among them
+_NUMERIC = b"0123456789+-.eE, \t\r\n"
+_BLANK = re.compile(r"(?:^|\n)[ \t\r]*\n")
+
+
+def _fast_values(data: str, width: int) -> np.ndarray | None:
+    """The data rows as an array, parsed in C, or None when the line-by-line reading must decide.
+
+    Taken only where both readings agree by construction: digits, signs, points, exponents,
+    commas and spaces alone (no text, no nan or inf, no comment), CR only before LF, no blank
+    line among the rows (so that row i is line i after the header row), every row as wide as
+    the header row and every value finite. numpy's reader converts a cell as float() does."""
+    data = data.rstrip()
+    if not data:
+        return None
+    raw = data.encode("ascii", "replace")
+    if raw.translate(None, _NUMERIC) or raw.count(b"\r") != raw.count(b"\r\n") or _BLANK.search(data):
+        return None
+    try:
+        values = np.loadtxt(io.BytesIO(raw), delimiter=",", comments=None, ndmin=2, dtype=float, encoding="ascii")
+    except ValueError:
+        return None
+    if values.shape[1] != width or not np.isfinite(values).all():
+        return None
+    return values
+
+
+def _values_by_line(path: str, magic: str, columns: list[str], reading) -> tuple[np.ndarray, np.ndarray]:
+    """The data rows read one line at a time; the first problem is refused at its line."""
+    rows, values = array("q"), array("d")
+    for row_number, line, _ in reading:
+        text = line.strip()
         if not text:
             continue
         if text.startswith("#"):
@@ -238,14 +306,11 @@ def read_table(path: str, magic: str, allowed: set[str], column_sets: list[list[
         if len(cells) != len(columns):
             raise MeasurementError(f"{len(cells)} values where the header row has {len(columns)}"
                                    f"{_laid_out_otherwise(magic, text)}", Location(path, row_number))
-        values = []
         for name, cell in zip(columns, cells):
             value = _float(cell)
             if value is None:
                 raise MeasurementError(f"{name} = {cell.strip()!r} is not a finite number{_laid_out_otherwise(magic, text)}",
                                        Location(path, row_number))
             values.append(value)
-        table.rows.append((row_number, values))
-    if not table.rows:
-        raise MeasurementError("the file has no data rows", Location(path))
-    return table
+        rows.append(row_number)
+    return np.array(rows, dtype=np.int64), np.array(values, dtype=float).reshape(len(rows), len(columns))

@@ -115,7 +115,7 @@ def _touches(table: Table) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
     centres = np.column_stack([columns["x_mm"], columns["z_mm"]])
     approach = np.column_stack([columns["approach_x"], columns["approach_z"]])
     lengths = np.hypot(approach[:, 0], approach[:, 1])
-    lines = tuple(line for line, _ in table.rows)
+    lines = tuple(table.lines.tolist())
     for line, length in zip(lines, lengths):
         if abs(length - 1.0) > UNIT_TOLERANCE:
             raise table.error(f"the approach vector has length {length:.6f}; it must be a unit vector (within 0.001)", line)
