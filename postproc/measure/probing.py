@@ -25,7 +25,7 @@ from ..diagnostics import Location, MeasurementError, Reporter, SafetyError
 from .features import Feature, features, owners
 from ..geometry import Nearest, Profile, as_points
 from ..machine.bounds import MAX_CORRECTION
-from .readers.probe import MISREADINGS, ProbeFile, Touches, likely_cause
+from .readers.probe import MISREADINGS, ProbeFile, Touches, far_datum_cause, likely_cause
 from .pretravel import CalibrationModel
 from .screening import Screening, screen
 
@@ -70,6 +70,9 @@ def check_datum(probe: ProbeFile, force: bool = False, reporter: Reporter | None
         text = (f"datum_before_{axis}_mm = {before:g} and datum_after_{axis}_mm = {after:g} differ by "
                 f"{abs(drift):.4f} mm, more than repeatability_mm = {probe.repeatability:g}")
         if abs(drift) > probe.repeatability + 1e-12:
+            unit = far_datum_cause(before, after, probe.repeatability, probe.centres[:, "xz".index(axis)])
+            if unit:
+                text += f"; or, {unit}"
             if not force:
                 raise SafetyError(f"the machine moved during the inspection: {text}; the points are not valid "
                                   f"(re-probe after a cool-down, or {FORCE_FLAG} to use them anyway)",

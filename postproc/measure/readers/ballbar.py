@@ -231,7 +231,8 @@ def read_ballbar(path: str, reporter: Reporter | None = None, averaging: int = 6
 #: a whole circle's first and last readings are neighbours: a step between them this many times
 #: the largest between any other two (and above CLOSURE_FLOOR_MM) is the two ends of an arc
 CLOSURE_RATIO = 3.0
-CLOSURE_FLOOR_MM = 0.0005
+#: mm; what the bar may drift (warming, a few um) between a whole circle's first and last readings
+CLOSURE_FLOOR_MM = 0.005
 
 
 def open_ends(readings: np.ndarray) -> str | None:

@@ -141,7 +141,7 @@ def _datum(table: Table, repeatability: float | None, centres: np.ndarray) -> tu
     """The datum readings before and after the profile, axis -> mm, in pairs.
 
     A pair that is no drift of one datum (:func:`_misread_datum`: readings more than any
-    correction apart, or a datum metres from every touch that drifts) is no move of the machine
+    correction apart) is no move of the machine
     a forced run could use (``--force`` covers a datum that moved by more than the
     repeatability), but a value misread: refused at its line, naming how."""
     keys = {(phase, axis): f"datum_{phase}_{axis}_mm" for phase in ("before", "after") for axis in "xz"}
@@ -173,8 +173,7 @@ def _misread_datum(before: float, after: float, stable: float, touched: np.ndarr
     drift of one datum, or None. Readings more than a correction apart: the one that, read
     otherwise, agrees best with the other; else both in um or inches when so read they drift by
     no more than ``stable`` and lie nearer the ``touched`` stretch of the axis; else two datums.
-    Readings that drift by more than ``stable`` only, but lie further than DATUM_REACH_MM from
-    every touch, are both in um or inches when so read they are stable and among the touches."""
+    A datum that drifts by less, far from every touch, is :func:`far_datum_cause`'s."""
     drift = abs(after - before)
 
     def off(value: float) -> float:  # from the stretch of that axis the touches cover
@@ -194,11 +193,21 @@ def _misread_datum(before: float, after: float, stable: float, touched: np.ndarr
             return agree[0][1], agree[0][2], how
         return "before", both(off(before)) or "not one datum touched twice (another face or diameter, or a digit " \
                                                "wrong)", how
-    if drift > stable and off(before) > DATUM_REACH_MM:
-        cause = both(DATUM_REACH_MM)
-        if cause:
-            return "before", cause, (f"more than repeatability_mm = {stable:g}, the datum {off(before):.0f} mm from "
-                                     "every touch")
+    return None
+
+
+def far_datum_cause(before: float, after: float, stable: float, touched: np.ndarray) -> str | None:
+    """For a datum pair that drifts by more than ``stable``: when the datum lies further than
+    DATUM_REACH_MM from every touch and, both readings read in um (or inches), would be stable and
+    among the touches, that misreading, said beside the move (a long part's datum may lie that far,
+    so it is no refusal of its own: the move's, which --force may take)."""
+    off = max(float(touched.min()) - before, before - float(touched.max()), 0.0)
+    if off <= DATUM_REACH_MM:
+        return None
+    for factor, explain in WRITTEN:
+        scaled = before * factor
+        if abs(after - before) * factor <= stable and max(float(touched.min()) - scaled, scaled - float(touched.max())) < DATUM_REACH_MM:
+            return f"as the datum lies {off:.0f} mm from every touch, both readings {explain(after - before)}"
     return None
 
 
