@@ -91,22 +91,6 @@ def test_nested_comments(text):
     assert "".join(comment.text for comment in block.comments).startswith(text[text.index("("):][:6])
 
 
-@pytest.mark.parametrize("text, col, words", [
-    ("M09 (A (B) C", 5, "comment is not closed"),
-    ("(unclosed", 1, "comment is not closed"),
-    ("G01 X10. (unclosed", 10, "comment is not closed"),
-    ("G01 X1. (A)(B", 12, "comment is not closed"),
-    ("(a)b)", 5, "')' without a '('"),
-])
-def test_a_comment_left_open_is_refused_at_its_parenthesis(text, col, words):
-    """One error, at the '(' left open on its line (or a ')' that opens nothing), with the remedy."""
-    with pytest.raises(ProgramSyntaxError) as info:
-        parse(text)
-    assert info.value.location.col == col
-    assert info.value.message.startswith(words)
-    assert "')'" in info.value.message
-
-
 @pytest.mark.parametrize("text, col", [("G01 X10. %", 10), ("N10 %", 5), ("G01 X1. % (A)", 9), ("M30%", 4)])
 def test_a_percent_inside_a_block_is_refused_as_the_end_of_the_tape(text, col):
     with pytest.raises(ProgramSyntaxError) as info:
@@ -193,6 +177,11 @@ def test_m98_m99_g65():
         ("G01 X Z1.", 5, "address X has no value"),
         ("G01 X1. (open", 9, "comment is not closed"),
         ("G01 X1.)", 8, "')' without"),
+        ("(a)b)", 5, "')' without a '('"),
+        ("M09 (A (B) C", 5, "comment is not closed: '(' without its ')' on its line: close it with ')'"),
+        ("(unclosed", 1, "comment is not closed"),
+        ("G01 X10. (unclosed", 10, "comment is not closed"),
+        ("G01 X1. (A)(B", 12, "comment is not closed"),
         ("10 G01", 1, "number without an address"),
         ("#1 = [2 + 3", 12, "']' missing"),
         ("G01 X1. #1=2", 9, "stand alone"),
