@@ -133,6 +133,14 @@ def call_word(block: Block) -> Word | None:
     return None
 
 
+def restarts(step: Step) -> bool:
+    """Whether what runs after the block starts from where the program left the tool: a block
+    that names the coordinates of where the tool stands (G50 X/Z, G92 in systems B and C, a
+    preset), or one that calls a program or returns from one (M98, M198, G65, G66, M99). The tool
+    goes back to the nominal end of a corrected move before it, and nothing is joined across it."""
+    return step.names_position or call_word(step.block) is not None
+
+
 def last_along(entry: Entry) -> tuple[Move, Edit | None] | None:
     """The step's last move along the program (a cutting move, not an approach or retract), with
     its edit; None for a step with none: where the tool ends, for the blocks after it."""

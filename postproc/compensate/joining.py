@@ -49,7 +49,14 @@ class Joining:
                 self._explicit(previous)
                 last_edit = previous.edits[previous.step.moves.index(last_move)]
         if not connected:  # the next move does not start from here (a cycle's start point, a shift, a jump)
-            if first_edit is not None and (last_move.role == CONTOUR or not self._moved_end(last_move, last_edit, entry)):
+            moved = last_move.role != CONTOUR and self._moved_end(last_move, last_edit, entry)
+            if (moved and None not in (first_move.x0, first_move.z0) and previous.moving is None
+                    and not self._under_nose_offset(previous.step)):
+                # the next move starts from a known point the shift between (G50 U/W) carries the correction to: the
+                # tool goes back where the program has it (a jump's target starts from nowhere known: nothing to meet)
+                last_edit.lead_out = self._connector(last_edit.end, (last_move.x1, last_move.z1), previous.step)
+                moved = False
+            if first_edit is not None and not moved:
                 self._from_nominal_start(entry)  # the tool stands where the program as written has it
             return
         nominal = (last_move.x1, last_move.z1)

@@ -80,8 +80,9 @@ class Planning:
             remedy = (f"its label N{block.label} is the Q of a G70-G73 cycle, and a FANUC control takes no call or "
                       f"return between a cycle's P and Q (it stops with an alarm): move the call out of the contour")
         else:
-            remedy = ("to go on, give the call a block of its own after the move, or --keep-unplannable to leave such "
-                      "blocks uncompensated")
+            remedy = ("to go on, give the call a block of its own after the move (out of any G70-G73 contour, between "
+                      "whose P and Q a FANUC control takes no call), or --keep-unplannable to leave such blocks "
+                      "uncompensated")
         raise UnplannableBlock(f"block cannot be compensated: {cause} ({CALL}); {remedy}",
                                Location(self.file, block.line, word.col + 1, block.text), CALL, f"{cause} ({CALL})")
 

@@ -15,6 +15,10 @@ the same):
   both end coordinates absolute still ends where it did; one that omits an axis or moves
   incrementally gets its end written out absolutely; anything else (an arc, a cycle, a
   thread) gets a connecting G01 back to the nominal end first;
+- a move with a corrected start and no corrected move before it to meet (the program's first,
+  the first after G50 or a call, the first after a cycle, which goes back to its start point, or
+  after a shift by G50 U/W, before which a corrected move goes back to its nominal end) is met
+  from its nominal start, where the tool stands, by a connecting G01;
 - a block whose motion mode the replacement no longer leaves in force (it relied on
   modal G03, say) gets that code written in front of it;
 - a G71/G72 contour is read whole before it is written: its approach (the first block) is
@@ -49,7 +53,8 @@ from . import monotone
 from .compensator import Piece
 from .emitter import Writer
 from .correcting import Correcting, STEPS, _travel, _turns, pieces, sample_lines, travel_after
-from .edits import _INCREMENTAL_OF, ALONG, KEEP, MACRO_VALUES, NAMED, NUMBERS, REFUSE, Edit, Entry, call_word, macro_word
+from .edits import (_INCREMENTAL_OF, ALONG, KEEP, MACRO_VALUES, NAMED, NUMBERS, REFUSE, Edit, Entry, call_word, macro_word,
+                    restarts)
 from .joining import Joining
 from .one_way import OneWayRule, _OneWay
 from .planning import Planning
@@ -71,14 +76,6 @@ WINDOW = 4096
 
 #: The corrections wanted for a run of pieces, in order: an (n, 2) array or None for each.
 Corrector = Callable[[list[Piece]], "list[np.ndarray | None]"]
-
-
-def _restarts(step: Step) -> bool:
-    """Whether what runs after the block starts from where the program left the tool: a block
-    that names the coordinates of where the tool stands (G50 X/Z, G92 in systems B and C, a
-    preset), or one that calls a program or returns from one (M98, M198, G65, G66, M99). The tool
-    goes back to the nominal end of a corrected move before it, and nothing is joined across it."""
-    return step.names_position or call_word(step.block) is not None
 
 
 class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
@@ -139,7 +136,6 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
         self.mode_now = self.original_mode = self.known_mode = None
         others = bool(self._others)
         one_way = monotone.ONE_WAY_CYCLES
-        write = self._write
         for batch in self._corrected(self.steps):
             for entry in batch:
                 step = entry.step
@@ -151,7 +147,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
                     self._pending.append(entry)
                     if step.contour_end or not step.in_contour:
                         yield from self._release()
-                elif entry.refusal is None and not entry.motion and not _restarts(step):
+                elif entry.refusal is None and not entry.motion and not restarts(step):
                     self._window.append(entry)
                     if len(self._window) - self._spilled > WINDOW:
                         if self._previous is None:  # no join waits: written now
@@ -160,12 +156,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
                         else:
                             self._spill()
                 else:
-                    window = self._take(entry)
-                    if self._spool.used:
-                        yield from self._flush(window)
-                    else:
-                        for waiting in window:  # each written as its lines are asked for
-                            yield from write(waiting)
+                    yield from self._flush(self._take(entry))  # each written as its lines are asked for
         if self._pending is not None:
             yield from self._release()
         if self._previous is not None:
@@ -209,7 +200,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
         if entry.refusal is not None:
             raise entry.refusal
         if not entry.motion:
-            if _restarts(entry.step):
+            if restarts(entry.step):
                 if self._previous is not None:  # the frame it names, the program it calls, are the program's
                     self._back_to_nominal(self._previous, entry.step)
                 self._previous = None
@@ -243,7 +234,7 @@ class Rewriter(Correcting, Joining, Planning, Writing, OneWayRule, SelfCheck):
                     stretch = Stretch()
                     kept.append(stretch)
                 spool.write(item.step.block.raw)
-                stretch.add(item.step.modal.motion, words[0])
+                stretch.add(item.step.modal.motion, words[0] and item.step.block.delete is None)  # as _write
                 continue
             stretch = None  # a step that stays: the next stretch starts after it
             kept.append(item)

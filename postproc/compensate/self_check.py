@@ -17,7 +17,7 @@ from ..interpret.interpreter import Interpreter
 from ..interpret.motion import ARC, CONTOUR, LINE, RAPID, Step
 from ..syntax.fastpath import CanonicalLine, canonical_line
 from ..syntax.reader import read_blocks
-from .edits import ALONG, JOIN, Entry, _cut_of, _where, call_word
+from .edits import ALONG, JOIN, Entry, _cut_of, _where, restarts
 from .farthest import farthest, within
 from .segmenter import Cut
 
@@ -116,7 +116,7 @@ class SelfCheck:
     def _written(self, step: Step, cuts: list[Cut] | None) -> None:
         """Follow where the tool stands after the step as written (``cuts``: its replacement, or
         None for the block as it was)."""
-        if step.names_position or call_word(step.block) is not None:
+        if restarts(step):
             self._tool = AT_NOMINAL  # a corrected move before it went back to its nominal end
         elif step.moves:
             self._tool = (step.moves[-1], (cuts[-1].x1, cuts[-1].z1) if cuts else None)

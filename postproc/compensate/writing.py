@@ -50,8 +50,7 @@ class Writing:
                     return [with_motion_code(block, writer.code(wanted, Style.of(block)))]
             if (sets_mode and block.delete is None) or self.mode_now is None:
                 self.mode_now = step.modal.motion
-            elif sets_mode and fields is None and call_word(block) is None:
-                pass  # behind '/': skipped, the mode written before stays; run, it is the block's (known_mode keeps the program's)
+            # (a code behind '/' leaves the mode written before: skipped, that stays; run, it is the block's)
             elif fields is None and (call := call_word(block)) is not None:
                 if self.mode_now != before and before is not None:
                     self._mode_into_call(step, call, before)

@@ -60,7 +60,6 @@ class ContourCycles:
         switch decides whether the control reads it). G04, G40-G42, F, S, T and the M codes of the
         machine (M08...) are taken: the roughing cycles ignore F, S and T in the contour, G70 runs
         them."""
-        name = G.code_name(next(key for key, (_, means) in self.table.items() if means == meaning))
         for word in block.words:
             if type(word.value) is not str:
                 continue  # a value only the run gives: the block is not interpreted (a warning says so)
@@ -86,6 +85,7 @@ class ContourCycles:
                     continue
             else:
                 continue
+            name = G.code_name(next(key for key, (_, means) in self.table.items() if means == meaning))
             raise InterpretationError(
                 f"{word.text.strip()}: {what} in the contour N{p}..N{q} of the {name} on line {cycle_line}: a FANUC "
                 f"control takes no {code} between a multiple repetitive cycle's P and Q (it stops with an alarm), and "

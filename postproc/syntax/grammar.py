@@ -114,6 +114,9 @@ def _explain(exc: LarkError, text: str) -> tuple[str, int]:
         char = text[col] if col < len(text) else ""
         before = text[:col].rstrip(" \t")
         if char == "(":
+            rest = text[col:].split("\n", 1)[0]
+            if rest.count("(") == rest.count(")"):
+                return "comment nested more than three deep: take the innermost parentheses out", col
             return "comment is not closed: '(' without its ')' on its line: close it with ')'", col
         if char == "%":
             return _PERCENT_IN_BLOCK, col

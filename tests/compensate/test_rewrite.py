@@ -498,14 +498,16 @@ def test_no_move_joins_the_end_in_one_work_frame_to_a_block_in_another(change):
 
 @pytest.mark.parametrize("system, naming, names", [
     ("A", "G50 X40. Z-10.", True), ("A", "G50 Z-10.", True), ("A", "G50 X40. W-2.", True), ("A", "G50.3 P0", True),
-    ("B", "G92 X40. Z-10.", True), ("B", "G92.1 X0 Z0", True), ("A", "G50 W-5.", False), ("A", "G50 S2000", False),
-    ("B", "G91 G92 Z-5.", False),
+    ("B", "G92 X40. Z-10.", True), ("B", "G92.1 X0 Z0", True), ("A", "G50 W-5.", True), ("A", "G50 S2000", False),
+    ("B", "G91 G92 Z-5.", False),  # read either way by controls: Z unknown after it, nothing to meet
 ])
 def test_a_block_that_names_where_the_tool_stands_finds_it_at_the_nominal_end(system, naming, names):
     """G50 X/Z (G92 in systems B and C) and the presets name the coordinates of wherever the tool
     was sent: after a corrected move that is the corrected end, and the frame set there would
     carry the correction, a constant shift of every block after it. The tool goes back to the
-    move's nominal end first. A shift by U/W, or a spindle clamp, names nothing and adds nothing."""
+    move's nominal end first. A shift by U/W renumbers the frame only, but the next move no longer
+    starts where the last ended in the program's numbers: the tool goes back too, and the next
+    move is met from its nominal start. A spindle clamp names nothing and adds nothing."""
     mode = "G90 " if system == "B" else ""
     text = (f"G18 G21 G99 F0.1\n{mode}G00 X20. Z5.\nG01 Z0.\nX40. Z-10.\n{naming}\nG00 X100.\n")
     shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
@@ -520,7 +522,7 @@ def test_a_block_that_names_where_the_tool_stands_finds_it_at_the_nominal_end(sy
 _SHIFT = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))  # noqa: E731
 
 
-def _stretch(text: str, window: int, profile=DEFAULT, **options) -> tuple[str, int]:
+def _stretch(text: str, window: int, profile=DEFAULT, correct=_SHIFT, **options) -> tuple[str, int]:
     """The program rewritten with the given window (or the refusal, as text), and the most
     steps the rewriter held in memory behind a motion step (a spooled stretch counts one), as
     seen each time a step is read (a batch at a time)."""
@@ -529,7 +531,7 @@ def _stretch(text: str, window: int, profile=DEFAULT, **options) -> tuple[str, i
     rewrite_module.WINDOW = window
     try:
         with Source.from_text(text, "t.nc") as source:
-            rewriter = Rewriter(None, each(_SHIFT), profile, Request(tolerance=0.001, **options), Reporter(), "t.nc",
+            rewriter = Rewriter(None, each(correct), profile, Request(tolerance=0.001, **options), Reporter(), "t.nc",
                                 labels=source.labels)
 
             def counted(steps):
@@ -582,6 +584,8 @@ _G42 = replace(DEFAULT, nose_radius_mm=0.4)
     ("G00 X20. C0.\nG01 Z0.\nX40. Z-10.", "M08", "G01 X60. Z-30. C90.", replace(DEFAULT, axes="XZC"), False),
     ("G02 X40. Z-10. R8.", "M08", "X60. Z-30. R25.", DEFAULT, False),  # the next block relies on the modal G02
     ("G02 X40. Z-10. R8.", "G01", "X60. Z-30.", DEFAULT, False),  # ... on a G01 set in the stretch
+    ("G02 X40. Z-10. R8.", "/G02", "X60. Z-30. R25.", DEFAULT, False),  # ... on a mode behind '/', which may be skipped
+    ("G02 X40. Z-10. R8.", "/G03", "X60. Z-30. R25.", DEFAULT, False),
     ("G01 Z0.\nX40. Z-10.", "M08", "G02 X60. Z-30. R25.", DEFAULT, False),  # an arc after it: a connecting G01
     ("G01 Z0.\nX40. Z-10.", "M08", "K1.\nG01 W-20.", DEFAULT, False),  # a block that relies on the mode stays in memory
     ("G71 U1. R0.5\nG71 P10 Q20 U0.2 W0.1 F0.2\nN10 G00 X20.\nG01 Z-10.\nX30. Z-20.\nN20 X40.", "(C)",
@@ -605,7 +609,7 @@ def test_every_join_across_a_long_stretch_is_the_one_a_short_stretch_gets(head, 
     assert out.startswith("UnplannableBlock") == refused  # the others compensated, as before the window existed
 
 
-_FILLERS = ["M08", "M09", "(C)", "", "G04 X0.5", "G01", "G00", "G02", "/M08", "#100=1.", "S800", "K1.", "G40", "G42"]
+_FILLERS = ["M08", "M09", "(C)", "", "G04 X0.5", "G01", "G00", "G02", "/G02", "/G03", "/G01", "/M08", "#100=1.", "S800", "K1.", "G40", "G42"]
 _BEFORE = ["G01 X40. Z-10.", "G02 X40. Z-10. R8.", "G01 X40. Z-10. ,R1.", "G42 G01 X40. Z-10.", "G01 X40. Z-10. M05"]
 _AFTER = ["G01 X60. Z-30.", "X60. Z-30.", "G42 G01 X60. Z-30.", "G03 X60. Z-30. R25.", "W-5.", "G00 X80.", "M98 P100",
           "G50 X60. Z-30."]
@@ -809,13 +813,15 @@ def test_a_move_with_nothing_before_it_to_join_starts_from_its_nominal_start(bef
      "G70 P10 Q20"),
     ("G00 X182. Z2.\nG50 U10.", "G50 U10."),
     ("G00 X182. Z2.\nG50 W-20.", "G50 W-20."),
+    ("G00 X182. Z2.\nG01 Z-10.\nX190. Z-20.\nG50 U10.", "G50 U10."),
 ])
 def test_a_move_from_where_the_program_put_the_tool_is_joined_from_there(head, marker):
     """A move that does not start where the last move ended, while the tool stands where the
     program as written has it: the start point a G70-G73 cycle goes back to, or a shift of the
-    coordinates by G50 U/W after a move left as it was. A corrected start is met from the move's
-    nominal start by a connecting G01 (without it the move ran from the nominal start, off its
-    plan by the correction there; after G70 the self-check now refuses that)."""
+    coordinates by G50 U/W (a corrected move before it goes back to its nominal end first, as the
+    shift would carry its correction on). A corrected start is met from the move's nominal start
+    by a connecting G01 (without it the move ran from the nominal start, off its plan by the
+    correction there; after G70 the self-check now refuses that)."""
     text = f"G18 G21 G99 F0.1\n{head}\nG01 X190. Z-70.\nM30\n"
     shift = lambda piece: None if piece.move.kind != LINE else np.tile((0.003, -0.002), (len(piece.points), 1))
     out, _ = rewrite(text, shift, tolerance=0.001)
@@ -846,3 +852,15 @@ def test_a_block_delete_block_that_changes_nothing_leaves_the_mode_written_befor
     out, _ = rewrite(text, radial(0.002, lines={4}), mode="line", tolerance=0.001)
     lines = out.splitlines()
     assert "/M09" in lines and "G03 X60. Z-20. R10." in lines  # the program's G03 written back in front
+
+
+@pytest.mark.parametrize("deleted", ["/G02", "/G03", "/G01", "/G00"])
+def test_a_mode_behind_block_delete_in_a_long_stretch_leaves_the_mode_written_before(deleted):
+    """An arc written as lines leaves G01 in force; a motion code behind '/' in the stretch after
+    it may be skipped, so the next block relying on the program's mode is written (or refused)
+    as across a short stretch, whether the stretch waited in the spool or in memory."""
+    text = ("G18 G21 G99 F0.1\nG00 X42. Z5.\nG01 Z0.\nG02 X40. Z-10. R8.\n" + "(C)\n" * 20 + f"{deleted}\n"
+            + "(C)\n" * 20 + "X60. Z-20. R10.\nG00 X100.\nM30\n")
+    short = _stretch(text, _UNBOUNDED, correct=radial(0.003), mode="line")[0]
+    assert "X40.006 Z-10.002" not in short.splitlines() and "G02 X40. Z-10. R8." not in short.splitlines()  # as lines
+    assert _stretch(text, 8, correct=radial(0.003), mode="line")[0] == short

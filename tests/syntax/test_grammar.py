@@ -179,6 +179,7 @@ def test_m98_m99_g65():
         ("G01 X1.)", 8, "')' without"),
         ("(a)b)", 5, "')' without a '('"),
         ("M09 (A (B) C", 5, "comment is not closed: '(' without its ')' on its line: close it with ')'"),
+        ("G01 X1. (A (B (C (D))))", 9, "comment nested more than three deep: take the innermost parentheses out"),
         ("(unclosed", 1, "comment is not closed"),
         ("G01 X10. (unclosed", 10, "comment is not closed"),
         ("G01 X1. (A)(B", 12, "comment is not closed"),
