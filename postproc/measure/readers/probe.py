@@ -174,41 +174,39 @@ def _misread_datum(before: float, after: float, stable: float, touched: np.ndarr
     otherwise, agrees best with the other; else both in um or inches when so read they drift by
     no more than ``stable`` and lie nearer the ``touched`` stretch of the axis; else two datums.
     A datum that drifts by less, far from every touch, is :func:`far_datum_cause`'s."""
-    drift = abs(after - before)
-
-    def off(value: float) -> float:  # from the stretch of that axis the touches cover
-        return max(float(touched.min()) - value, value - float(touched.max()), 0.0)
-
-    def both(near: float) -> str | None:
-        cause = next((explain(after - before) for factor, explain in WRITTEN
-                      if drift * factor <= stable and off(before * factor) < near), None)
-        return cause and f"both readings {cause}"
-
-    if drift > MAX_CORRECTION:
-        how = f"more than any correction ({MAX_CORRECTION:g} mm)"
-        agree = sorted((abs(value * factor - fixed), phase, explain(value))
-                       for phase, fixed, value in (("after", before, after), ("before", after, before))
-                       for factor, explain in readings if abs(value * factor - fixed) <= MAX_CORRECTION)
-        if agree:
-            return agree[0][1], agree[0][2], how
-        return "before", both(off(before)) or "not one datum touched twice (another face or diameter, or a digit " \
-                                               "wrong)", how
-    return None
+    if abs(after - before) <= MAX_CORRECTION:
+        return None
+    how = f"more than any correction ({MAX_CORRECTION:g} mm)"
+    agree = sorted((abs(value * factor - fixed), phase, explain(value))
+                   for phase, fixed, value in (("after", before, after), ("before", after, before))
+                   for factor, explain in readings if abs(value * factor - fixed) <= MAX_CORRECTION)
+    if agree:
+        return agree[0][1], agree[0][2], how
+    both = _both_misread(before, after, stable, touched, _off(before, touched))
+    return "before", (f"both readings {both}" if both else
+                      "not one datum touched twice (another face or diameter, or a digit wrong)"), how
 
 
 def far_datum_cause(before: float, after: float, stable: float, touched: np.ndarray) -> str | None:
     """For a datum pair that drifts by more than ``stable``: when the datum lies further than
     DATUM_REACH_MM from every touch and, both readings read in um (or inches), would be stable and
-    among the touches, that misreading, said beside the move (a long part's datum may lie that far,
-    so it is no refusal of its own: the move's, which --force may take)."""
-    off = max(float(touched.min()) - before, before - float(touched.max()), 0.0)
-    if off <= DATUM_REACH_MM:
-        return None
-    for factor, explain in WRITTEN:
-        scaled = before * factor
-        if abs(after - before) * factor <= stable and max(float(touched.min()) - scaled, scaled - float(touched.max())) < DATUM_REACH_MM:
-            return f"as the datum lies {off:.0f} mm from every touch, both readings {explain(after - before)}"
-    return None
+    within DATUM_REACH_MM of the touches, that misreading, said beside the move (a long part's datum
+    may lie that far, so it is no refusal of its own: the move's, which --force may take)."""
+    off = _off(before, touched)
+    both = _both_misread(before, after, stable, touched, DATUM_REACH_MM) if off > DATUM_REACH_MM else None
+    return f"as the datum lies {off:.0f} mm from every touch, both readings {both}" if both else None
+
+
+def _off(value: float, touched: np.ndarray) -> float:
+    """How far a datum reading lies from the stretch of its axis the touches cover (mm)."""
+    return max(float(touched.min()) - value, value - float(touched.max()), 0.0)
+
+
+def _both_misread(before: float, after: float, stable: float, touched: np.ndarray, near: float) -> str | None:
+    """The misreading (um, inches) under which both readings drift by no more than ``stable`` and
+    the datum lies nearer than ``near`` to the touches, or None."""
+    return next((explain(after - before) for factor, explain in WRITTEN
+                 if abs(after - before) * factor <= stable and _off(before * factor, touched) < near), None)
 
 
 def read_probe(path: str) -> ProbeFile:
